@@ -1,0 +1,88 @@
+// The view graph: verified image pairs read from a COLMAP database, refined
+// stage by stage (focal lengths, relative poses, rotation consistency).
+// Pairs are kept in an ordered map keyed by COLMAP's pair id so that every
+// stage iterates them in the same order on every run (determinism).
+#pragma once
+
+#include <map>
+#include <unordered_set>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "feature/types.h"
+#include "util/types.h"
+
+namespace glomap {
+
+// One image pair of the database, in COLMAP's canonical orientation
+// (image_id1 < image_id2; matches hold point2D indices of image 1, image 2).
+struct ImagePair {
+  colmap::image_t image_id1 = colmap::kInvalidImageId;
+  colmap::image_t image_id2 = colmap::kInvalidImageId;
+
+  // Two-view configuration stored by the matcher
+  // (colmap::TwoViewGeometry::ConfigurationType).
+  int config = 0;
+
+  // Two-view geometry from the database, column-major Eigen:
+  // x2^T F x1 = 0 in pixels, x2^T E x1 = 0 in normalized image coordinates
+  // (E is zero when a camera had no focal prior), x2 ~ H x1 in pixels.
+  Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d E = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+
+  // Number of raw (putative) matches in the database's `matches` table.
+  int num_raw_matches = 0;
+
+  // Geometrically verified matches (the database's two-view-geometry inliers).
+  colmap::FeatureMatches matches;
+
+  // Indices into `matches` that agree with the relative pose below, filled by
+  // the relative-pose stage. Tracks are built from these only.
+  std::vector<int> inlier_idxs;
+
+  // Relative pose cam2_from_cam1: x_cam2 = R(qvec) x_cam1 + tvec, |tvec| = 1.
+  // qvec is (w, x, y, z), COLMAP's order.
+  Eigen::Vector4d qvec2_from_1 = Eigen::Vector4d(1, 0, 0, 0);
+  Eigen::Vector3d tvec2_from_1 = Eigen::Vector3d::Zero();
+  bool has_relative_pose = false;
+
+  // False once a stage rejects the pair; invalid pairs are ignored by every
+  // later stage but kept for retriangulation with the database matches.
+  bool is_valid = true;
+};
+
+class ViewGraph {
+ public:
+  std::map<colmap::image_pair_t, ImagePair>& Pairs() { return pairs_; }
+  const std::map<colmap::image_pair_t, ImagePair>& Pairs() const {
+    return pairs_;
+  }
+
+  // Adds a pair (swapped into canonical orientation if needed) and returns it.
+  ImagePair& AddPair(ImagePair pair);
+
+  size_t NumPairs() const { return pairs_.size(); }
+  size_t NumValidPairs() const;
+
+  // Image ids that take part in at least one valid pair, sorted.
+  std::vector<colmap::image_t> ImagesWithValidPairs() const;
+
+  // The largest connected component of the graph of valid pairs, as sorted
+  // image ids. Ties are broken towards the component with the smallest id.
+  std::vector<colmap::image_t> LargestConnectedComponent() const;
+
+  // All connected components of valid pairs, largest first, each sorted.
+  std::vector<std::vector<colmap::image_t>> ConnectedComponents() const;
+
+  // Marks every pair with an image outside `image_ids` as invalid; returns
+  // the number of pairs newly invalidated.
+  size_t InvalidatePairsOutside(
+      const std::unordered_set<colmap::image_t>& image_ids);
+
+ private:
+  std::map<colmap::image_pair_t, ImagePair> pairs_;
+};
+
+}  // namespace glomap
