@@ -1,0 +1,396 @@
+#include "gui/global_reconstruction_ui.h"
+
+#include <algorithm>
+
+#include "colmap_ext/global_mapper_options.h"
+#include "gui/global_mapper_options_dialog.h"
+#include "ui/main_window.h"
+#include "util/misc.h"
+
+namespace colmap {
+namespace {
+
+// Inserts `action` right after `after` in a menu or tool bar, or at its end.
+void InsertActionAfter(QWidget* container, QAction* after, QAction* action) {
+  const QList<QAction*> actions = container->actions();
+  const int index = actions.indexOf(after);
+  if (index >= 0 && index + 1 < actions.size()) {
+    container->insertAction(actions[index + 1], action);
+  } else {
+    container->addAction(action);
+  }
+}
+
+// "mm:ss", or "h:mm:ss" from one hour on.
+QString FormatElapsed(qint64 msecs) {
+  const qint64 seconds = msecs / 1000;
+  if (seconds < 3600) {
+    return QString::asprintf("%02lld:%02lld", seconds / 60, seconds % 60);
+  }
+  return QString::asprintf("%lld:%02lld:%02lld", seconds / 3600,
+                           (seconds / 60) % 60, seconds % 60);
+}
+
+}  // namespace
+
+GlobalReconstructionUi* InstallGlobalReconstruction(MainWindow* main_window) {
+  return new GlobalReconstructionUi(main_window);
+}
+
+GlobalReconstructionUi::GlobalReconstructionUi(MainWindow* main_window)
+    : QObject(main_window), window_(main_window) {
+  CreateActions();
+  CreateStatusWidgets();
+  ConnectProjectActions();
+  options_dialog_ = new GlobalMapperOptionsDialog(
+      window_, &options_, [this]() {
+        // Like a project file written by Save: keep the options with the
+        // project as soon as it has a file.
+        if (ExistsFile(*window_->options_.project_path)) SaveProjectOptions();
+      });
+  // `colmap gui --project_path p.ini` opened a project before we existed.
+  LoadProjectOptions();
+
+  window_->installEventFilter(this);
+  connect(qApp, &QCoreApplication::aboutToQuit, this, [this]() {
+    if (IsRunning()) StopAndWait();
+  });
+}
+
+GlobalReconstructionUi::~GlobalReconstructionUi() {
+  // Normally the close event has stopped the run. If the window is destroyed
+  // without closing, release the worker from any render request it waits on
+  // (the requests go to this object) and let it finish.
+  if (controller_) {
+    cancelling_ = true;
+    controller_->Stop();
+    while (!controller_->IsFinished()) {
+      QCoreApplication::removePostedEvents(this);
+      QThread::msleep(5);
+    }
+    controller_->Wait();
+  }
+}
+
+const ReconstructionManager& GlobalReconstructionUi::Models() const {
+  return window_->reconstruction_manager_;
+}
+
+std::string GlobalReconstructionUi::OptionsFilePath(
+    const std::string& project_path) {
+  std::string base = project_path;
+  if (HasFileExtension(base, ".ini")) base.resize(base.size() - 4);
+  return base + ".global_mapper.ini";
+}
+
+void GlobalReconstructionUi::CreateActions() {
+  // The stock "start" icon with a globe-like ring marks the global variant.
+  QPixmap icon = QIcon(":/media/reconstruction-start.png").pixmap(32, 32);
+  if (icon.isNull()) {
+    icon = QPixmap(32, 32);
+    icon.fill(Qt::transparent);
+  }
+  {
+    QPainter painter(&icon);
+    painter.setRenderHint(QPainter::Antialiasing);
+    painter.setPen(QPen(QColor(30, 90, 200), 3));
+    painter.setBrush(Qt::NoBrush);
+    painter.drawEllipse(QRectF(15.5, 15.5, 15, 15));
+    painter.drawLine(QPointF(15.5, 23), QPointF(30.5, 23));
+    painter.drawEllipse(QRectF(19.5, 15.5, 7, 15));
+  }
+
+  action_run_ =
+      new QAction(QIcon(icon), tr("Global reconstruction"), window_);
+  action_run_->setToolTip(
+      tr("Global reconstruction: all cameras at once (global mapper)"));
+  connect(action_run_, &QAction::triggered, this, [this]() { Run(); });
+  window_->blocking_actions_.push_back(action_run_);
+
+  action_options_ = new QAction(QIcon(":/media/reconstruction-options.png"),
+                                tr("Global reconstruction options..."),
+                                window_);
+  connect(action_options_, &QAction::triggered, this,
+          [this]() { ShowOptions(); });
+  window_->blocking_actions_.push_back(action_options_);
+
+  // Menu: after the incremental start/pause/step and after its options.
+  for (QWidget* widget :
+       window_->action_reconstruction_step_->associatedWidgets()) {
+    if (QMenu* menu = qobject_cast<QMenu*>(widget)) {
+      InsertActionAfter(menu, window_->action_reconstruction_step_,
+                        action_run_);
+      InsertActionAfter(menu, window_->action_reconstruction_options_,
+                        action_options_);
+    }
+  }
+  InsertActionAfter(window_->reconstruction_toolbar_,
+                    window_->action_reconstruction_pause_, action_run_);
+}
+
+void GlobalReconstructionUi::CreateStatusWidgets() {
+  QFont font;
+  font.setPointSize(11);
+  progress_label_ = new QLabel(window_);
+  progress_label_->setFont(font);
+  progress_bar_ = new QProgressBar(window_);
+  progress_bar_->setRange(0, glomap::GlobalMapper::kNumStages);
+  progress_bar_->setFormat("%v/%m");
+  progress_bar_->setMaximumWidth(160);
+  cancel_button_ = new QPushButton(tr("Cancel"), window_);
+  cancel_button_->setToolTip(tr("Stop the global reconstruction"));
+  connect(cancel_button_, &QPushButton::clicked, this, [this]() { Cancel(); });
+
+  QStatusBar* status_bar = window_->statusBar();
+  status_bar->addPermanentWidget(progress_label_);
+  status_bar->addPermanentWidget(progress_bar_);
+  status_bar->addPermanentWidget(cancel_button_);
+  progress_label_->hide();
+  progress_bar_->hide();
+  cancel_button_->hide();
+
+  progress_timer_ = new QTimer(this);
+  connect(progress_timer_, &QTimer::timeout, this,
+          [this]() { UpdateProgress(); });
+}
+
+void GlobalReconstructionUi::ConnectProjectActions() {
+  // MainWindow's own handlers were connected first, so these run after them
+  // and see the project path they set.
+  connect(window_->action_project_open_, &QAction::triggered, this,
+          [this]() {
+            if (*window_->options_.project_path != options_project_path_) {
+              LoadProjectOptions();
+            }
+          });
+  const auto save = [this]() {
+    if (ExistsFile(*window_->options_.project_path)) SaveProjectOptions();
+  };
+  connect(window_->action_project_save_, &QAction::triggered, this, save);
+  connect(window_->action_project_save_as_, &QAction::triggered, this, save);
+}
+
+void GlobalReconstructionUi::LoadProjectOptions() {
+  options_project_path_ = *window_->options_.project_path;
+  options_ = glomap::GlobalMapperOptions();
+  if (options_project_path_.empty()) return;
+  const std::string path = OptionsFilePath(options_project_path_);
+  if (ExistsFile(path) && !glomap::ReadGlobalMapperOptionsFile(path, &options_)) {
+    options_ = glomap::GlobalMapperOptions();
+    ShowError("Cannot read " + path + "; using the default options.");
+  }
+}
+
+void GlobalReconstructionUi::SaveProjectOptions() {
+  options_project_path_ = *window_->options_.project_path;
+  const std::string path = OptionsFilePath(options_project_path_);
+  if (!glomap::WriteGlobalMapperOptionsFile(path, options_)) {
+    ShowError("Cannot write " + path + ".");
+  }
+}
+
+void GlobalReconstructionUi::ShowOptions() {
+  options_dialog_->show();
+  options_dialog_->raise();
+  options_dialog_->activateWindow();
+}
+
+void GlobalReconstructionUi::ShowError(const std::string& message) {
+  QMessageBox::critical(window_, tr("Global reconstruction"),
+                        QString::fromStdString(message));
+}
+
+void GlobalReconstructionUi::Run() {
+  if (IsRunning()) return;
+  if (!window_->options_.Check()) {
+    window_->ShowInvalidProjectError();
+    return;
+  }
+  // The checks and messages of `colmap global_mapper`.
+  const std::string database_path = *window_->options_.database_path;
+  if (!ExistsFile(database_path)) {
+    ShowError("Database " + database_path + " does not exist.");
+    return;
+  }
+  glomap::GlobalMapperOptions options = options_;
+  options.image_path = *window_->options_.image_path;
+  if (!options.Check()) {
+    ShowError("Invalid GlobalMapper.* options (see the log).");
+    return;
+  }
+  // Asks before replacing existing models; stops the incremental mapper.
+  if (!window_->ReconstructionOverwrite()) return;
+
+  if (controller_) controller_->Wait();
+  controller_ = std::make_unique<glomap::GlobalMapperController>(
+      options, database_path, &window_->reconstruction_manager_);
+  glomap::GlobalMapperController* controller = controller_.get();
+  controller->AddCallback(
+      glomap::GlobalMapperController::STAGE_CALLBACK, [this]() {
+        QMetaObject::invokeMethod(
+            this, [this]() { UpdateProgress(); }, Qt::QueuedConnection);
+      });
+  // The worker waits until the GUI has copied the model (as with
+  // MainWindow's action_render_now_), so the viewer never sees it half
+  // changed. Skipped once stopped: the GUI thread may be waiting for us.
+  controller->AddCallback(
+      glomap::GlobalMapperController::MODEL_UPDATED_CALLBACK,
+      [this, controller]() {
+        if (controller->IsStopped()) return;
+        QMetaObject::invokeMethod(
+            this, [this]() { OnModelUpdated(); },
+            Qt::BlockingQueuedConnection);
+      });
+  controller->AddCallback(glomap::GlobalMapperController::FINISHED_CALLBACK,
+                          [this]() {
+                            QMetaObject::invokeMethod(
+                                this, [this]() { OnFinished(); },
+                                Qt::QueuedConnection);
+                          });
+
+  running_ = true;
+  cancelling_ = false;
+  LockWindow();
+  window_->timer_.Restart();
+  elapsed_.start();
+  progress_bar_->setValue(0);
+  progress_label_->show();
+  progress_bar_->show();
+  cancel_button_->setEnabled(true);
+  cancel_button_->show();
+  UpdateProgress();
+  progress_timer_->start(250);
+  controller->Start();
+}
+
+void GlobalReconstructionUi::Cancel() {
+  if (!IsRunning() || cancelling_) return;
+  cancelling_ = true;
+  cancel_button_->setEnabled(false);
+  controller_->Stop();
+  UpdateProgress();
+}
+
+void GlobalReconstructionUi::StopAndWait() {
+  if (!controller_) return;
+  closing_ = true;
+  cancelling_ = true;
+  controller_->Stop();
+  while (!controller_->IsFinished()) {
+    QCoreApplication::processEvents(QEventLoop::ExcludeUserInputEvents, 20);
+    QThread::msleep(5);
+  }
+  controller_->Wait();
+}
+
+void GlobalReconstructionUi::UpdateProgress() {
+  if (!IsRunning()) return;
+  const int stage_index = controller_->StageIndex();
+  QString stage;
+  if (cancelling_) {
+    stage = tr("cancelling");
+  } else if (stage_index < 0) {
+    stage = tr("starting");
+  } else {
+    stage = QString("Stage %1/%2 %3")
+                .arg(stage_index + 1)
+                .arg(glomap::GlobalMapper::kNumStages)
+                .arg(QString::fromStdString(controller_->StageName()));
+  }
+  progress_label_->setText(QString("Global reconstruction: %1 \u2014 %2")
+                               .arg(stage, FormatElapsed(elapsed_.elapsed())));
+  progress_bar_->setValue(std::max(stage_index, 0));
+}
+
+void GlobalReconstructionUi::OnModelUpdated() {
+  // A cancelled run deletes its model: keep showing the last copy.
+  if (cancelling_) return;
+  window_->RenderNow();
+}
+
+void GlobalReconstructionUi::OnFinished() {
+  if (!running_) return;
+  controller_->Wait();
+  running_ = false;
+  progress_timer_->stop();
+  window_->timer_.Pause();
+  last_status_ = controller_->RunStatus();
+  UnlockWindow();
+
+  // The working model is gone; show the largest final model (or nothing).
+  ReconstructionManager& models = window_->reconstruction_manager_;
+  window_->reconstruction_manager_widget_->Update();
+  if (models.Size() > 0) {
+    window_->reconstruction_manager_widget_->SelectReconstruction(0);
+  }
+  window_->RenderSelectedReconstruction();
+  window_->action_bundle_adjustment_->setEnabled(models.Size() > 0);
+
+  progress_bar_->hide();
+  cancel_button_->hide();
+  const QString elapsed = FormatElapsed(elapsed_.elapsed());
+  std::string error;
+  if (last_status_.cancelled()) {
+    progress_label_->setText(tr("Global reconstruction cancelled"));
+  } else if (!last_status_.ok()) {
+    error = last_status_.message();
+  } else if (models.Size() == 0) {
+    error = "Nothing was reconstructed.";
+  } else {
+    size_t num_images = 0;
+    for (size_t i = 0; i < models.Size(); ++i) {
+      num_images += models.Get(i).NumRegImages();
+    }
+    progress_label_->setText(
+        QString("Global reconstruction: %1 model(s), %2 images \u2014 %3")
+            .arg(models.Size())
+            .arg(num_images)
+            .arg(elapsed));
+  }
+  if (!error.empty()) {
+    progress_label_->setText(tr("Global reconstruction failed"));
+    if (!closing_) ShowError(error);
+  }
+}
+
+void GlobalReconstructionUi::LockWindow() {
+  // MainWindow's blocking actions (which include ours) plus the ones that
+  // would reset, replace or read the models while the worker changes them.
+  std::vector<QAction*> actions = window_->blocking_actions_;
+  for (QAction* action :
+       {window_->action_project_new_, window_->action_project_open_,
+        window_->action_automatic_reconstruction_,
+        window_->action_reconstruction_reset_,
+        window_->action_dense_reconstruction_,
+        window_->action_reconstruction_stats_,
+        window_->action_extract_colors_}) {
+    actions.push_back(action);
+  }
+  locked_actions_.clear();
+  for (QAction* action : actions) {
+    locked_actions_.emplace_back(action, action->isEnabled());
+    action->setEnabled(false);
+  }
+  // Choosing another model would render it from the GUI thread.
+  window_->reconstruction_manager_widget_->setEnabled(false);
+}
+
+void GlobalReconstructionUi::UnlockWindow() {
+  for (const auto& [action, enabled] : locked_actions_) {
+    action->setEnabled(enabled);
+  }
+  locked_actions_.clear();
+  window_->reconstruction_manager_widget_->setEnabled(true);
+}
+
+bool GlobalReconstructionUi::eventFilter(QObject* watched, QEvent* event) {
+  if (watched == window_ && event->type() == QEvent::Close && IsRunning()) {
+    // The window asks its questions first; stop only if it really closes.
+    static_cast<QObject*>(window_)->event(event);
+    if (event->isAccepted()) StopAndWait();
+    return true;
+  }
+  return QObject::eventFilter(watched, event);
+}
+
+}  // namespace colmap

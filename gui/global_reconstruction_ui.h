@@ -1,0 +1,109 @@
+// "Reconstruction > Global reconstruction" in COLMAP 3.8's main window: the
+// menu and toolbar actions, the options dialog, the run in a background
+// thread with its progress in the status bar, and the per-project options
+// file. It is installed into an existing MainWindow (src/exe/gui.cc calls
+// InstallGlobalReconstruction), so COLMAP's GUI code changes only by one
+// friend declaration (patches 0002 and 0003).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <QtCore>
+#include <QtWidgets>
+
+#include "base/reconstruction_manager.h"
+#include "glomap/global_mapper.h"
+#include "glomap/global_mapper_controller.h"
+#include "glomap/status.h"
+
+namespace colmap {
+
+class MainWindow;
+class GlobalMapperOptionsDialog;
+
+class GlobalReconstructionUi : public QObject {
+ public:
+  // Adds the actions to `main_window`, which owns the result.
+  explicit GlobalReconstructionUi(MainWindow* main_window);
+  ~GlobalReconstructionUi() override;
+
+  // "Global reconstruction" and "Global reconstruction options...".
+  QAction* RunAction() const { return action_run_; }
+  QAction* OptionsAction() const { return action_options_; }
+  GlobalMapperOptionsDialog* OptionsDialog() const { return options_dialog_; }
+
+  glomap::GlobalMapperOptions* Options() { return &options_; }
+  bool IsRunning() const { return controller_ != nullptr && running_; }
+  // Outcome of the last finished run.
+  const glomap::Status& LastStatus() const { return last_status_; }
+  // The main window's models (what its reconstruction manager holds).
+  const ReconstructionManager& Models() const;
+
+  // The options file kept beside a project file: `dir/name.ini` ->
+  // `dir/name.global_mapper.ini`. Stock COLMAP 3.8 rejects unknown keys in a
+  // project file, so the GlobalMapper.* options never go into it.
+  static std::string OptionsFilePath(const std::string& project_path);
+
+ protected:
+  // Stops a running reconstruction when the main window closes, before the
+  // window's models go away.
+  bool eventFilter(QObject* watched, QEvent* event) override;
+
+ private:
+  void CreateActions();
+  void CreateStatusWidgets();
+  void ConnectProjectActions();
+
+  void Run();
+  void Cancel();
+  void ShowOptions();
+
+  // On the GUI thread while the worker waits: the model is consistent.
+  void OnModelUpdated();
+  // On the GUI thread once the worker is done.
+  void OnFinished();
+  void UpdateProgress();
+  // Cancels a run and waits for its thread, serving the worker's pending
+  // render requests meanwhile (it may be blocked on one).
+  void StopAndWait();
+
+  // Disables every action that could touch the models during a run, and
+  // restores the previous states afterwards.
+  void LockWindow();
+  void UnlockWindow();
+
+  void LoadProjectOptions();
+  void SaveProjectOptions();
+  void ShowError(const std::string& message);
+
+  MainWindow* window_;
+  glomap::GlobalMapperOptions options_;
+  std::unique_ptr<glomap::GlobalMapperController> controller_;
+  bool running_ = false;
+  bool cancelling_ = false;
+  bool closing_ = false;
+  glomap::Status last_status_;
+  // Project file whose options file was last read or written.
+  std::string options_project_path_;
+
+  QAction* action_run_ = nullptr;
+  QAction* action_options_ = nullptr;
+  GlobalMapperOptionsDialog* options_dialog_ = nullptr;
+
+  QLabel* progress_label_ = nullptr;
+  QProgressBar* progress_bar_ = nullptr;
+  QPushButton* cancel_button_ = nullptr;
+  QTimer* progress_timer_ = nullptr;
+  QElapsedTimer elapsed_;
+
+  std::vector<std::pair<QAction*, bool>> locked_actions_;
+};
+
+// Adds "Global reconstruction" to `main_window` (call once, right after
+// constructing it); the main window owns the returned object.
+GlobalReconstructionUi* InstallGlobalReconstruction(MainWindow* main_window);
+
+}  // namespace colmap

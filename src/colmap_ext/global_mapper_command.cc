@@ -1,0 +1,203 @@
+// `colmap global_mapper`: global Structure-from-Motion from a COLMAP 3.8
+// project. Reads the database read-only, runs the pipeline in a
+// GlobalMapperController (the same thread the GUI runs) and writes one binary
+// model per camera cluster to OUTPUT/0, OUTPUT/1, ..., largest first, each
+// atomically (written to a temporary folder, then renamed into place).
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <system_error>
+
+#include "base/reconstruction_manager.h"
+#include "colmap_ext/commands.h"
+#include "colmap_ext/global_mapper_options.h"
+#include "glomap/global_mapper_controller.h"
+#include "util/misc.h"
+#include "util/option_manager.h"
+
+namespace colmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+int Fail(const std::string& message) {
+  std::cerr << "ERROR: " << message << std::endl;
+  return EXIT_FAILURE;
+}
+
+// Value of `--name value` in argv, or "" (used before OptionManager::Parse,
+// which exits on invalid paths with a less helpful message, and which ignores
+// command-line values when a project file is given).
+std::string FindArgument(int argc, char** argv, const std::string& name) {
+  for (int i = 1; i + 1 < argc; ++i) {
+    if (argv[i] == "--" + name) return argv[i + 1];
+  }
+  return "";
+}
+
+bool HasArgument(int argc, char** argv, const std::string& name) {
+  for (int i = 1; i < argc; ++i) {
+    if (argv[i] == "--" + name || argv[i] == "-" + name) return true;
+  }
+  return false;
+}
+
+// Checks a path the user gave before anything runs; returns "" if fine.
+std::string CheckInputPaths(const std::string& database_path,
+                            const std::string& image_path) {
+  std::error_code error;
+  if (!database_path.empty()) {
+    if (!fs::exists(database_path, error)) {
+      return "Database " + database_path + " does not exist.";
+    }
+    if (!fs::is_regular_file(database_path, error)) {
+      return "Database " + database_path + " is not a file.";
+    }
+    if (access(database_path.c_str(), R_OK) != 0) {
+      return "Database " + database_path + " is not readable.";
+    }
+  }
+  if (!image_path.empty() && !fs::is_directory(image_path, error)) {
+    return "Image folder " + image_path + " does not exist.";
+  }
+  return "";
+}
+
+// Creates the output folder (and its parents) if needed and checks that we
+// can write into it.
+std::string PrepareOutputPath(const std::string& output_path) {
+  std::error_code error;
+  if (output_path.empty()) return "No output path given (--output_path).";
+  if (fs::exists(output_path, error) && !fs::is_directory(output_path, error)) {
+    return "Output path " + output_path + " exists and is not a folder.";
+  }
+  fs::create_directories(output_path, error);
+  if (error || !fs::is_directory(output_path)) {
+    return "Cannot create the output folder " + output_path + " (" +
+           (error ? error.message() : std::string("unknown error")) + ").";
+  }
+  if (access(output_path.c_str(), W_OK) != 0) {
+    return "Output folder " + output_path + " is not writable.";
+  }
+  return "";
+}
+
+// Writes each model to OUTPUT/<k> so that a good model is never replaced by a
+// half-written one: everything is written to a temporary folder inside
+// OUTPUT first, then each model folder is swapped in with rename(2).
+std::string WriteModelsAtomically(const ReconstructionManager& models,
+                                  const std::string& output_path,
+                                  const OptionManager& options) {
+  std::error_code error;
+  const fs::path temp_dir = fs::path(output_path) /
+                            (".global_mapper_tmp_" + std::to_string(getpid()));
+  fs::remove_all(temp_dir, error);
+  if (!fs::create_directories(temp_dir, error)) {
+    return "Cannot write into " + output_path + ": " + error.message();
+  }
+  try {
+    for (size_t k = 0; k < models.Size(); ++k) {
+      const fs::path model_dir = temp_dir / std::to_string(k);
+      fs::create_directories(model_dir);
+      models.Get(k).WriteBinary(model_dir.string());
+      options.Write((model_dir / "project.ini").string());
+    }
+    for (size_t k = 0; k < models.Size(); ++k) {
+      const fs::path final_dir = fs::path(output_path) / std::to_string(k);
+      const fs::path old_dir = temp_dir / ("old_" + std::to_string(k));
+      if (fs::exists(final_dir)) fs::rename(final_dir, old_dir);
+      fs::rename(temp_dir / std::to_string(k), final_dir);
+    }
+  } catch (const std::exception& e) {
+    fs::remove_all(temp_dir, error);
+    return std::string("Writing the model failed: ") + e.what();
+  }
+  fs::remove_all(temp_dir, error);
+  return "";
+}
+
+}  // namespace
+
+int RunGlobalMapper(int argc, char** argv) {
+  glomap::GlobalMapperOptions mapper_options;
+  std::string output_path;
+  std::string image_list_path;
+
+  OptionManager options;
+  const bool has_project = HasArgument(argc, argv, "project_path");
+  if (has_project) {
+    // A stock COLMAP 3.8 project file holds every section; all must be known
+    // to the parser.
+    options.AddAllOptions();
+  } else {
+    options.AddDatabaseOptions();
+    options.AddImageOptions();
+  }
+  options.AddRequiredOption("output_path", &output_path,
+                            "Folder for the models (created if missing)");
+  options.AddDefaultOption("image_list_path", &image_list_path,
+                           "Optional file with one image name per line: "
+                           "reconstruct only these images");
+  glomap::AddGlobalMapperOptions(&options, &mapper_options);
+
+  if (!HasArgument(argc, argv, "help") && !HasArgument(argc, argv, "h")) {
+    const std::string error =
+        CheckInputPaths(FindArgument(argc, argv, "database_path"),
+                        FindArgument(argc, argv, "image_path"));
+    if (!error.empty()) return Fail(error);
+  }
+  options.Parse(argc, argv);
+  // Logs go to stderr as they happen, in glog's format, unless the user
+  // decided otherwise (OptionManager resets the flag to COLMAP's default).
+  if (!HasArgument(argc, argv, "log_to_stderr")) FLAGS_logtostderr = true;
+  if (has_project) {
+    // Parse() ignores command-line values when a project file is given; the
+    // command line still decides where the output goes.
+    const std::string cli_output = FindArgument(argc, argv, "output_path");
+    if (!cli_output.empty()) output_path = cli_output;
+    const std::string error =
+        CheckInputPaths(*options.database_path, *options.image_path);
+    if (!error.empty()) return Fail(error);
+  }
+
+  if (!image_list_path.empty()) {
+    if (!ExistsFile(image_list_path)) {
+      return Fail("Image list " + image_list_path + " does not exist.");
+    }
+    mapper_options.database.image_names = ReadTextFileLines(image_list_path);
+  }
+  mapper_options.image_path = *options.image_path;
+  if (!mapper_options.Check()) {
+    return Fail("Invalid GlobalMapper.* options (see the line above).");
+  }
+  {
+    const std::string error = PrepareOutputPath(output_path);
+    if (!error.empty()) return Fail(error);
+  }
+
+  ReconstructionManager reconstruction_manager;
+  glomap::GlobalMapperController controller(
+      mapper_options, *options.database_path, &reconstruction_manager);
+  controller.Start();
+  controller.Wait();
+
+  const glomap::Status status = controller.RunStatus();
+  if (!status.ok()) return Fail(status.message());
+  if (reconstruction_manager.Size() == 0) {
+    return Fail("Nothing was reconstructed.");
+  }
+  const std::string error =
+      WriteModelsAtomically(reconstruction_manager, output_path, options);
+  if (!error.empty()) return Fail(error);
+  for (size_t k = 0; k < reconstruction_manager.Size(); ++k) {
+    const auto& model = reconstruction_manager.Get(k);
+    std::cout << "Model " << k << ": " << model.NumRegImages()
+              << " images, " << model.NumPoints3D() << " points -> "
+              << output_path << "/" << k << std::endl;
+  }
+  return EXIT_SUCCESS;
+}
+
+}  // namespace colmap

@@ -1,0 +1,286 @@
+#include "colmap_ext/global_mapper_options.h"
+
+#include <boost/property_tree/ini_parser.hpp>
+#include <boost/property_tree/ptree.hpp>
+
+#include "util/logging.h"
+#include "util/option_manager.h"
+
+namespace glomap {
+namespace {
+
+class TableBuilder {
+ public:
+  explicit TableBuilder(std::vector<GlobalMapperOptionEntry>* table)
+      : table_(table) {}
+
+  void Group(const std::string& group) { group_ = group; }
+
+  template <typename T>
+  void Add(const std::string& key, T* value, const std::string& help) {
+    table_->push_back({group_, key, value, help});
+  }
+
+ private:
+  std::vector<GlobalMapperOptionEntry>* table_;
+  std::string group_;
+};
+
+}  // namespace
+
+std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
+    GlobalMapperOptions* o) {
+  std::vector<GlobalMapperOptionEntry> table;
+  TableBuilder b(&table);
+
+  b.Group("General");
+  b.Add("min_num_matches", &o->database.min_num_matches,
+        "Pairs with fewer verified matches are ignored");
+  b.Add("ignore_watermarks", &o->database.ignore_watermarks,
+        "Ignore pairs the matcher flagged as watermark");
+  b.Add("random_seed", &o->random_seed,
+        "Seed of every random choice: same input and seed, same model");
+  b.Add("num_threads", &o->num_threads, "Threads (-1: all cores)");
+  b.Add("min_model_size", &o->min_model_size,
+        "Camera clusters with fewer images are not written");
+  b.Add("skip_view_graph_calibration", &o->skip_view_graph_calibration,
+        "Keep the database's focal lengths");
+  b.Add("skip_bundle_adjustment", &o->skip_bundle_adjustment,
+        "Skip the global bundle-adjustment rounds");
+  b.Add("skip_retriangulation", &o->skip_retriangulation,
+        "Skip retriangulation");
+  b.Add("skip_clustering", &o->skip_clustering,
+        "Write all registered images as one model");
+
+  b.Group("View graph calibration");
+  auto& vgc = o->view_graph_calibration;
+  b.Add("vgc_min_focal_ratio", &vgc.min_focal_ratio,
+        "Reject a new focal length below this ratio of the old one");
+  b.Add("vgc_max_focal_ratio", &vgc.max_focal_ratio,
+        "Reject a new focal length above this ratio of the old one");
+  b.Add("vgc_max_two_view_error", &vgc.max_two_view_error,
+        "Pairs whose focal residual exceeds this are rejected");
+  b.Add("vgc_loss_scale", &vgc.loss_scale, "Cauchy loss scale");
+  b.Add("vgc_max_num_iterations", &vgc.max_num_iterations,
+        "Maximum solver iterations");
+
+  b.Group("Relative poses");
+  auto& rp = o->relative_pose;
+  b.Add("rp_max_epipolar_error_px", &rp.max_epipolar_error_px,
+        "RANSAC threshold of the essential matrix [px]");
+  b.Add("rp_max_num_trials", &rp.max_num_trials, "Maximum RANSAC trials");
+  b.Add("rp_min_num_trials", &rp.min_num_trials, "Minimum RANSAC trials");
+  b.Add("rp_confidence", &rp.confidence, "RANSAC confidence");
+  b.Add("rp_max_num_refinement_iterations",
+        &rp.max_num_refinement_iterations,
+        "Iterations of the relative-pose refinement");
+  b.Add("rp_max_epipolar_error_E_px", &rp.max_epipolar_error_E_px,
+        "Inlier threshold of calibrated pairs [px]");
+  b.Add("rp_max_epipolar_error_F_px", &rp.max_epipolar_error_F_px,
+        "Inlier threshold of uncalibrated pairs [px]");
+  b.Add("rp_max_epipolar_error_H_px", &rp.max_epipolar_error_H_px,
+        "Inlier threshold of planar or panoramic pairs [px]");
+  b.Add("rp_min_epipole_angle_deg", &rp.min_epipole_angle_deg,
+        "Matches closer to the epipole are not inliers [deg]");
+  b.Add("rp_min_num_inliers", &rp.min_num_inliers,
+        "Pairs with fewer inliers are rejected");
+  b.Add("rp_min_inlier_ratio", &rp.min_inlier_ratio,
+        "Pairs with a lower inlier ratio are rejected");
+
+  b.Group("Rotation averaging");
+  auto& ra = o->rotation_averaging;
+  b.Add("ra_max_num_l1_iterations", &ra.max_num_l1_iterations,
+        "Maximum L1 iterations");
+  b.Add("ra_l1_step_convergence_threshold_rad",
+        &ra.l1_step_convergence_threshold_rad, "L1 convergence [rad]");
+  b.Add("ra_max_num_irls_iterations", &ra.max_num_irls_iterations,
+        "Maximum IRLS iterations");
+  b.Add("ra_irls_step_convergence_threshold_rad",
+        &ra.irls_step_convergence_threshold_rad, "IRLS convergence [rad]");
+  b.Add("ra_irls_loss_parameter_sigma_deg", &ra.irls_loss_parameter_sigma_deg,
+        "Geman-McClure scale [deg]");
+  b.Add("ra_max_rotation_error_deg", &ra.max_rotation_error_deg,
+        "Pairs disagreeing with the global rotations by more are rejected "
+        "[deg]");
+  b.Add("ra_num_rounds", &ra.num_rounds,
+        "Solve, reject, solve again: number of solves");
+
+  b.Group("Tracks");
+  auto& tr = o->tracks;
+  b.Add("track_max_intra_image_distance_px", &tr.max_intra_image_distance_px,
+        "Tracks with two observations farther apart in one image are "
+        "dropped [px]");
+  b.Add("track_min_num_views_per_track", &tr.min_num_views_per_track,
+        "Minimum images per track");
+  b.Add("track_max_num_views_per_track", &tr.max_num_views_per_track,
+        "Maximum images per track");
+  b.Add("track_max_num_tracks", &tr.max_num_tracks, "Maximum tracks");
+  b.Add("track_min_num_tracks_per_view", &tr.min_num_tracks_per_view,
+        "Keep the longest tracks until every image has this many (-1: all "
+        "tracks)");
+
+  b.Group("Global positioning");
+  auto& gp = o->global_positioning;
+  b.Add("gp_loss_scale", &gp.loss_scale, "Huber loss scale");
+  b.Add("gp_max_num_iterations", &gp.max_num_iterations,
+        "Maximum solver iterations");
+  b.Add("gp_function_tolerance", &gp.function_tolerance,
+        "Solver function tolerance");
+  b.Add("gp_optimize_positions", &gp.optimize_positions,
+        "Optimize camera positions");
+  b.Add("gp_optimize_points", &gp.optimize_points, "Optimize points");
+  b.Add("gp_optimize_scales", &gp.optimize_scales, "Optimize ray scales");
+  b.Add("gp_init_box_size", &gp.init_box_size,
+        "Size of the random initialisation box");
+  b.Add("gp_uncalibrated_weight", &gp.uncalibrated_weight,
+        "Weight of cameras without a focal prior");
+  b.Add("gp_max_angular_error_deg", &gp.max_angular_error_deg,
+        "Observations with a larger angular error are removed [deg]");
+  b.Add("gp_min_tri_angle_deg", &gp.min_tri_angle_deg,
+        "Points with a smaller triangulation angle are removed [deg]");
+  b.Add("gp_min_inlier_observation_ratio", &gp.min_inlier_observation_ratio,
+        "Fail if fewer observations survive filtering");
+
+  b.Group("Bundle adjustment");
+  auto& ba = o->bundle_adjustment;
+  b.Add("ba_num_rounds", &ba.num_rounds, "Maximum bundle-adjustment rounds");
+  b.Add("ba_loss_scale_px", &ba.loss_scale_px, "Robust loss scale [px]");
+  b.Add("ba_max_num_iterations", &ba.max_num_iterations,
+        "Maximum iterations per solve");
+  b.Add("ba_function_tolerance", &ba.function_tolerance,
+        "Solver function tolerance");
+  b.Add("ba_refine_focal_length", &ba.refine_focal_length,
+        "Refine focal lengths");
+  b.Add("ba_refine_principal_point", &ba.refine_principal_point,
+        "Refine principal points");
+  b.Add("ba_refine_extra_params", &ba.refine_extra_params,
+        "Refine distortion parameters");
+  b.Add("ba_max_normalized_reproj_error", &ba.max_normalized_reproj_error,
+        "Reprojection-error filter, normalized image units (x3, x2, x1 over "
+        "rounds)");
+  b.Add("ba_min_tri_angle_deg", &ba.min_tri_angle_deg,
+        "Points with a smaller triangulation angle are removed [deg]");
+  b.Add("ba_min_changed_tracks_ratio", &ba.min_changed_tracks_ratio,
+        "Stop once fewer tracks change in a round");
+  b.Add("ba_skip_fixed_rotation_stage", &ba.skip_fixed_rotation_stage,
+        "Skip the solve with fixed rotations");
+  b.Add("ba_skip_joint_stage", &ba.skip_joint_stage, "Skip the joint solve");
+
+  b.Group("Retriangulation");
+  auto& tri = o->retriangulation;
+  b.Add("tri_min_num_matches", &tri.min_num_matches,
+        "Pairs with fewer matches are not used");
+  b.Add("tri_complete_max_reproj_error_px",
+        &tri.complete_max_reproj_error_px, "Track completion threshold [px]");
+  b.Add("tri_merge_max_reproj_error_px", &tri.merge_max_reproj_error_px,
+        "Track merging threshold [px]");
+  b.Add("tri_create_max_angle_error_deg", &tri.create_max_angle_error_deg,
+        "Angular error to create a point [deg]");
+  b.Add("tri_continue_max_angle_error_deg", &tri.continue_max_angle_error_deg,
+        "Angular error to continue a track [deg]");
+  b.Add("tri_min_angle_deg", &tri.min_angle_deg,
+        "Minimum triangulation angle [deg]");
+  b.Add("tri_max_refinements", &tri.max_refinements,
+        "Maximum refinement iterations");
+  b.Add("tri_max_refinement_change", &tri.max_refinement_change,
+        "Stop refining once fewer observations change");
+  b.Add("tri_max_num_structure_iterations",
+        &tri.max_num_structure_iterations,
+        "Iterations of each structure-only adjustment");
+  b.Add("tri_filter_max_reproj_error_px", &tri.filter_max_reproj_error_px,
+        "Reprojection-error filter [px]");
+  b.Add("tri_filter_min_tri_angle_deg", &tri.filter_min_tri_angle_deg,
+        "Triangulation-angle filter [deg]");
+  b.Add("tri_run_bundle_adjustment", &tri.run_bundle_adjustment,
+        "Run a final bundle adjustment");
+
+  b.Group("Camera clustering");
+  auto& cc = o->clustering;
+  b.Add("cc_min_covisible_points", &cc.min_covisible_points,
+        "Image pairs sharing fewer points are not linked");
+  b.Add("cc_min_edge_weight", &cc.min_edge_weight,
+        "Lower bound of the strong-link threshold [points]");
+  b.Add("cc_merge_weight_ratio", &cc.merge_weight_ratio,
+        "Clusters merge through links above this fraction of the threshold");
+  b.Add("cc_min_num_merge_edges", &cc.min_num_merge_edges,
+        "Links needed to merge two clusters");
+  b.Add("cc_max_merge_rounds", &cc.max_merge_rounds, "Merging rounds");
+  b.Add("cc_min_cluster_size", &cc.min_cluster_size, "Smallest cluster");
+  return table;
+}
+
+void AddGlobalMapperOptions(colmap::OptionManager* manager,
+                            GlobalMapperOptions* options) {
+  for (const auto& entry : GlobalMapperOptionTable(options)) {
+    const std::string name = "GlobalMapper." + entry.key;
+    std::visit(
+        [&](auto* value) {
+          manager->AddDefaultOption(name, value, entry.help);
+        },
+        entry.value);
+  }
+}
+
+bool ReadGlobalMapperOptionsFile(const std::string& path,
+                                 GlobalMapperOptions* options) {
+  boost::property_tree::ptree tree;
+  try {
+    boost::property_tree::read_ini(path, tree);
+  } catch (const std::exception& e) {
+    LOG(WARNING) << "Cannot read " << path << ": " << e.what();
+    return false;
+  }
+  const auto section = tree.get_child_optional("GlobalMapper");
+  if (!section) return true;
+  std::vector<GlobalMapperOptionEntry> table = GlobalMapperOptionTable(options);
+  for (const auto& [key, node] : *section) {
+    auto it = std::find_if(table.begin(), table.end(),
+                           [&key = key](const auto& e) { return e.key == key; });
+    if (it == table.end()) {
+      LOG(WARNING) << path << ": unknown option GlobalMapper." << key;
+      continue;
+    }
+    const std::string text = node.get_value<std::string>();
+    try {
+      std::visit(
+          [&](auto* value) {
+            using T = std::remove_pointer_t<decltype(value)>;
+            if constexpr (std::is_same_v<T, bool>) {
+              *value = text == "1" || text == "true";
+            } else if constexpr (std::is_same_v<T, int>) {
+              *value = std::stoi(text);
+            } else {
+              *value = std::stod(text);
+            }
+          },
+          it->value);
+    } catch (const std::exception&) {
+      LOG(WARNING) << path << ": invalid value '" << text
+                   << "' for GlobalMapper." << key;
+      return false;
+    }
+  }
+  return true;
+}
+
+bool WriteGlobalMapperOptionsFile(const std::string& path,
+                                  const GlobalMapperOptions& options) {
+  GlobalMapperOptions copy = options;
+  boost::property_tree::ptree tree;
+  for (const auto& entry : GlobalMapperOptionTable(&copy)) {
+    std::visit(
+        [&](auto* value) {
+          tree.put("GlobalMapper." + entry.key, *value);
+        },
+        entry.value);
+  }
+  try {
+    boost::property_tree::write_ini(path, tree);
+  } catch (const std::exception& e) {
+    LOG(WARNING) << "Cannot write " << path << ": " << e.what();
+    return false;
+  }
+  return true;
+}
+
+}  // namespace glomap

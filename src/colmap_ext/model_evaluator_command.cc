@@ -1,0 +1,110 @@
+// colmap model_evaluator: accuracy of a model against a ground-truth model
+// (pairwise pose AUC and camera position errors, see
+// glomap/model_evaluation.h), as text and optionally as a JSON object.
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "base/reconstruction.h"
+#include "colmap_ext/commands.h"
+#include "glomap/model_evaluation.h"
+#include "util/option_manager.h"
+
+namespace colmap {
+namespace {
+
+// Parses "0.01,0.05,0.1" into positive numbers; false on anything else.
+bool ParseThresholds(const std::string& text, std::vector<double>* values) {
+  values->clear();
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) {
+    if (item.find_first_not_of(" \t") == std::string::npos) continue;
+    try {
+      size_t end = 0;
+      const double value = std::stod(item, &end);
+      if (item.find_first_not_of(" \t", end) != std::string::npos ||
+          !(value > 0.0)) {
+        return false;
+      }
+      values->push_back(value);
+    } catch (const std::exception&) {
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+int RunModelEvaluator(int argc, char** argv) {
+  std::string input_path;
+  std::string gt_path;
+  std::string json_path;
+  std::string position_thresholds;
+  glomap::ModelEvaluationOptions evaluation_options;
+  double inlier_fraction =
+      evaluation_options.alignment_inlier_fraction_of_scale;
+
+  OptionManager options;
+  options.AddRequiredOption("input_path", &input_path,
+                            "Model to evaluate (COLMAP binary or text).");
+  options.AddRequiredOption("gt_path", &gt_path,
+                            "Ground-truth model; images matched by name.");
+  options.AddDefaultOption("json_path", &json_path,
+                           "Also write the figures as a JSON object here.");
+  options.AddDefaultOption(
+      "position_thresholds", &position_thresholds,
+      "Comma-separated distance thresholds, in ground-truth units, of the "
+      "camera position AUC, e.g. 0.01,0.05,0.1.");
+  options.AddDefaultOption(
+      "alignment_inlier_fraction", &inlier_fraction,
+      "RANSAC inlier threshold of the similarity alignment, as a fraction of "
+      "the median distance of ground-truth cameras from their median.");
+  options.Parse(argc, argv);
+
+  if (!ParseThresholds(position_thresholds,
+                       &evaluation_options.position_auc_thresholds)) {
+    std::cerr << "ERROR: --position_thresholds must be positive numbers "
+                 "separated by commas, got \""
+              << position_thresholds << "\"." << std::endl;
+    return EXIT_FAILURE;
+  }
+  evaluation_options.alignment_inlier_fraction_of_scale = inlier_fraction;
+  if (!evaluation_options.Check()) {
+    std::cerr << "ERROR: --alignment_inlier_fraction must be positive."
+              << std::endl;
+    return EXIT_FAILURE;
+  }
+
+  Reconstruction model;
+  glomap::Status status = glomap::ReadModel(input_path, &model);
+  Reconstruction ground_truth;
+  if (status.ok()) status = glomap::ReadModel(gt_path, &ground_truth);
+  glomap::ModelEvaluation evaluation;
+  if (status.ok()) {
+    status = glomap::EvaluateModel(model, ground_truth, evaluation_options,
+                                   &evaluation);
+  }
+  if (!status.ok()) {
+    std::cerr << "ERROR: " << status.message() << std::endl;
+    return EXIT_FAILURE;
+  }
+
+  std::cout << glomap::EvaluationToText(evaluation, evaluation_options);
+  if (!json_path.empty()) {
+    std::ofstream file(json_path);
+    file << glomap::EvaluationToJson(evaluation, evaluation_options);
+    file.close();
+    if (!file) {
+      std::cerr << "ERROR: Could not write " << json_path << "." << std::endl;
+      return EXIT_FAILURE;
+    }
+  }
+  return EXIT_SUCCESS;
+}
+
+}  // namespace colmap

@@ -1,0 +1,372 @@
+#include "glomap/bundle_adjustment.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <chrono>
+#include <iostream>
+#include <memory>
+#include <set>
+#include <utility>
+#include <vector>
+
+#include "base/camera_models.h"
+#include "base/cost_functions.h"
+#include "glomap/track_filters.h"
+#include "optim/bundle_adjustment.h"
+#include "util/threading.h"
+
+namespace glomap {
+namespace {
+
+// Stops a Ceres solve at the end of the current iteration once the user
+// cancels (as COLMAP's BundleAdjustmentController does for pausing).
+class InterruptCallback : public ceres::IterationCallback {
+ public:
+  explicit InterruptCallback(const Interrupt& interrupt)
+      : interrupt_(interrupt) {}
+
+  ceres::CallbackReturnType operator()(
+      const ceres::IterationSummary& /*summary*/) override {
+    return interrupt_.IsStopped() ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+                                  : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const Interrupt& interrupt_;
+};
+
+// COLMAP 3.8 has no automatic gauge. With one image's pose fixed, the
+// remaining freedom is the scale (for the joint solve; with all rotations
+// fixed the gauge is translation + scale, and fixing the same image's
+// translation removes the translation part). Scale is fixed by one
+// translation coordinate of a second image: its derivative with respect to a
+// scale change about the first centre is -R2 (c2 - c1), so we pick the
+// second image farthest from the first and the coordinate where that vector
+// is largest, which keeps the gauge well conditioned (COLMAP always takes
+// coordinate 0, which degenerates when the baseline lies along the second
+// camera's optical axis).
+struct Gauge {
+  colmap::image_t fixed_pose_image_id = colmap::kInvalidImageId;
+  colmap::image_t scale_image_id = colmap::kInvalidImageId;
+  int scale_tvec_idx = 0;
+};
+
+Gauge ChooseGauge(const colmap::Reconstruction& reconstruction,
+                  const std::vector<colmap::image_t>& image_ids) {
+  Gauge gauge;
+  gauge.fixed_pose_image_id = image_ids.front();
+  const Eigen::Vector3d center1 =
+      reconstruction.Image(gauge.fixed_pose_image_id).ProjectionCenter();
+  double max_distance = -1;
+  for (size_t i = 1; i < image_ids.size(); ++i) {
+    const double distance =
+        (reconstruction.Image(image_ids[i]).ProjectionCenter() - center1)
+            .norm();
+    if (distance > max_distance) {
+      max_distance = distance;
+      gauge.scale_image_id = image_ids[i];
+    }
+  }
+  const colmap::Image& image2 = reconstruction.Image(gauge.scale_image_id);
+  const Eigen::Vector3d baseline_in_cam2 =
+      image2.RotationMatrix() * (image2.ProjectionCenter() - center1);
+  baseline_in_cam2.cwiseAbs().maxCoeff(&gauge.scale_tvec_idx);
+  return gauge;
+}
+
+// Registered images that observe at least one 3D point, sorted by id.
+std::vector<colmap::image_t> ImagesWithPoints(
+    const colmap::Reconstruction& reconstruction) {
+  std::vector<colmap::image_t> image_ids;
+  for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
+    if (reconstruction.Image(image_id).NumPoints3D() > 0) {
+      image_ids.push_back(image_id);
+    }
+  }
+  std::sort(image_ids.begin(), image_ids.end());
+  return image_ids;
+}
+
+colmap::BundleAdjustmentOptions ColmapOptions(
+    const GlobalBundleAdjustmentOptions& options, InterruptCallback* callback) {
+  colmap::BundleAdjustmentOptions ba_options;
+  ba_options.loss_function_type =
+      colmap::BundleAdjustmentOptions::LossFunctionType::SOFT_L1;
+  ba_options.loss_function_scale = options.loss_scale_px;
+  ba_options.refine_focal_length = options.refine_focal_length;
+  ba_options.refine_principal_point = options.refine_principal_point;
+  ba_options.refine_extra_params = options.refine_extra_params;
+  ba_options.refine_extrinsics = true;
+  ba_options.print_summary = false;
+  ba_options.solver_options.max_num_iterations = options.max_num_iterations;
+  ba_options.solver_options.function_tolerance = options.function_tolerance;
+  ba_options.solver_options.num_threads =
+      colmap::GetEffectiveNumThreads(options.num_threads);
+  ba_options.solver_options.callbacks.push_back(callback);
+  return ba_options;
+}
+
+// Intrinsic parameter indices held constant by the options.
+std::vector<int> ConstantCameraParams(
+    const colmap::Camera& camera,
+    const colmap::BundleAdjustmentOptions& ba_options) {
+  std::vector<int> constant_params;
+  const auto append = [&constant_params](const std::vector<size_t>& idxs) {
+    for (const size_t idx : idxs)
+      constant_params.push_back(static_cast<int>(idx));
+  };
+  if (!ba_options.refine_focal_length) append(camera.FocalLengthIdxs());
+  if (!ba_options.refine_principal_point) append(camera.PrincipalPointIdxs());
+  if (!ba_options.refine_extra_params) append(camera.ExtraParamsIdxs());
+  std::sort(constant_params.begin(), constant_params.end());
+  constant_params.erase(
+      std::unique(constant_params.begin(), constant_params.end()),
+      constant_params.end());
+  return constant_params;
+}
+
+// COLMAP 3.8's BundleAdjustmentConfig can hold a whole pose constant but not
+// the rotation alone, so the rotation-fixed solve builds its own Ceres problem
+// from COLMAP's reprojection cost (base/cost_functions.h) with every qvec
+// block constant. Everything else (loss, solver type, threading) follows
+// colmap::BundleAdjuster so that both stages behave alike.
+Status SolveWithFixedRotations(
+    const colmap::BundleAdjustmentOptions& ba_options,
+    const std::vector<colmap::image_t>& image_ids, const Gauge& gauge,
+    colmap::Reconstruction* reconstruction, int* num_iterations) {
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  const std::unique_ptr<ceres::LossFunction> loss_function(
+      ba_options.CreateLossFunction());
+
+  std::set<colmap::camera_t> camera_ids;
+  for (const colmap::image_t image_id : image_ids) {
+    colmap::Image& image = reconstruction->Image(image_id);
+    colmap::Camera& camera = reconstruction->Camera(image.CameraId());
+    image.NormalizeQvec();  // The cost assumes unit quaternions.
+    double* qvec_data = image.Qvec().data();
+    double* tvec_data = image.Tvec().data();
+    for (const colmap::Point2D& point2D : image.Points2D()) {
+      if (!point2D.HasPoint3D()) continue;
+      colmap::Point3D& point3D = reconstruction->Point3D(point2D.Point3DId());
+      ceres::CostFunction* cost_function = nullptr;
+      switch (camera.ModelId()) {
+#define CAMERA_MODEL_CASE(CameraModel)                                     \
+  case colmap::CameraModel::kModelId:                                      \
+    cost_function =                                                        \
+        colmap::BundleAdjustmentCostFunction<colmap::CameraModel>::Create( \
+            point2D.XY());                                                 \
+    break;
+        CAMERA_MODEL_SWITCH_CASES
+#undef CAMERA_MODEL_CASE
+      }
+      problem.AddResidualBlock(cost_function, loss_function.get(), qvec_data,
+                               tvec_data, point3D.XYZ().data(),
+                               camera.ParamsData());
+    }
+    problem.SetParameterBlockConstant(qvec_data);
+    camera_ids.insert(image.CameraId());
+  }
+  if (problem.NumResiduals() == 0) {
+    return Status::Error("Bundle adjustment has no observations.");
+  }
+
+  problem.SetParameterBlockConstant(
+      reconstruction->Image(gauge.fixed_pose_image_id).Tvec().data());
+  colmap::SetSubsetManifold(
+      3, {gauge.scale_tvec_idx}, &problem,
+      reconstruction->Image(gauge.scale_image_id).Tvec().data());
+
+  for (const colmap::camera_t camera_id : camera_ids) {
+    colmap::Camera& camera = reconstruction->Camera(camera_id);
+    const std::vector<int> constant_params =
+        ConstantCameraParams(camera, ba_options);
+    if (constant_params.size() == camera.NumParams()) {
+      problem.SetParameterBlockConstant(camera.ParamsData());
+    } else if (!constant_params.empty()) {
+      colmap::SetSubsetManifold(static_cast<int>(camera.NumParams()),
+                                constant_params, &problem, camera.ParamsData());
+    }
+  }
+
+  ceres::Solver::Options solver_options = ba_options.solver_options;
+  // Same empirical choices as colmap::BundleAdjuster::Solve.
+  const bool has_sparse =
+      solver_options.sparse_linear_algebra_library_type != ceres::NO_SPARSE;
+  if (image_ids.size() <= 50) {
+    solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+  } else if (image_ids.size() <= 1000 && has_sparse) {
+    solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+  } else {
+    solver_options.linear_solver_type = ceres::ITERATIVE_SCHUR;
+    solver_options.preconditioner_type = ceres::SCHUR_JACOBI;
+  }
+  if (problem.NumResiduals() <
+      ba_options.min_num_residuals_for_multi_threading) {
+    solver_options.num_threads = 1;
+  }
+  std::string solver_error;
+  if (!solver_options.IsValid(&solver_error)) {
+    return Status::Error("Invalid Ceres options: " + solver_error);
+  }
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  *num_iterations = static_cast<int>(summary.iterations.size());
+  if (summary.termination_type == ceres::FAILURE) {
+    return Status::Error("Bundle adjustment with fixed rotations failed: " +
+                         summary.message);
+  }
+  return Status::Ok();
+}
+
+Status SolveJoint(const colmap::BundleAdjustmentOptions& ba_options,
+                  const std::vector<colmap::image_t>& image_ids,
+                  const Gauge& gauge, colmap::Reconstruction* reconstruction,
+                  int* num_iterations) {
+  colmap::BundleAdjustmentConfig config;
+  for (const colmap::image_t image_id : image_ids) {
+    config.AddImage(image_id);
+  }
+  config.SetConstantPose(gauge.fixed_pose_image_id);
+  config.SetConstantTvec(gauge.scale_image_id, {gauge.scale_tvec_idx});
+  colmap::BundleAdjuster bundle_adjuster(ba_options, config);
+  if (!bundle_adjuster.Solve(reconstruction)) {
+    return Status::Error("Bundle adjustment has no observations.");
+  }
+  const ceres::Solver::Summary& summary = bundle_adjuster.Summary();
+  *num_iterations = static_cast<int>(summary.iterations.size());
+  if (summary.termination_type == ceres::FAILURE) {
+    return Status::Error("Joint bundle adjustment failed: " + summary.message);
+  }
+  return Status::Ok();
+}
+
+// Filters by normalized reprojection error and returns the number of tracks
+// that lost at least one observation (deleted points included), the quantity
+// of the reference's stopping rule (glomap.md §2.7, Appendix A.5).
+size_t FilterAndCountChangedTracks(double max_normalized_reproj_error,
+                                   colmap::Reconstruction* reconstruction) {
+  std::vector<std::pair<colmap::point3D_t, size_t>> track_lengths;
+  track_lengths.reserve(reconstruction->NumPoints3D());
+  for (const auto& point3D : reconstruction->Points3D()) {
+    track_lengths.emplace_back(point3D.first, point3D.second.Track().Length());
+  }
+  FilterObservationsByNormalizedReprojectionError(reconstruction,
+                                                  max_normalized_reproj_error);
+  size_t num_changed = 0;
+  for (const auto& [point3D_id, length] : track_lengths) {
+    if (!reconstruction->ExistsPoint3D(point3D_id) ||
+        reconstruction->Point3D(point3D_id).Track().Length() != length) {
+      ++num_changed;
+    }
+  }
+  return num_changed;
+}
+
+double SecondsSince(const std::chrono::steady_clock::time_point& start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+}  // namespace
+
+bool GlobalBundleAdjustmentOptions::Check() const {
+  return num_rounds >= 1 && loss_scale_px > 0 && max_num_iterations >= 1 &&
+         function_tolerance >= 0 && max_normalized_reproj_error > 0 &&
+         min_tri_angle_deg >= 0 && min_changed_tracks_ratio >= 0 &&
+         min_changed_tracks_ratio <= 1 &&
+         (num_threads == -1 || num_threads >= 1);
+}
+
+Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
+                                 colmap::Reconstruction* reconstruction,
+                                 const Interrupt& interrupt,
+                                 const std::function<void()>& on_round_done) {
+  if (!options.Check()) {
+    return Status::Error("Invalid global bundle adjustment options.");
+  }
+  if (reconstruction == nullptr) {
+    return Status::Error("No reconstruction for bundle adjustment.");
+  }
+  InterruptCallback callback(interrupt);
+  const colmap::BundleAdjustmentOptions ba_options =
+      ColmapOptions(options, &callback);
+
+  // Threshold multipliers of successive filtering levels (glomap.md §2.7):
+  // loose while poses are still coarse, the nominal value from level 2 on.
+  const auto threshold_multiplier = [](int level) {
+    return std::max(3 - level, 1);
+  };
+
+  for (int level = 0; level < options.num_rounds; ++level) {
+    if (interrupt.IsStopped()) return Status::Cancelled();
+    const auto round_start = std::chrono::steady_clock::now();
+
+    // Points behind a camera make the projection degenerate.
+    reconstruction->FilterObservationsWithNegativeDepth();
+    const std::vector<colmap::image_t> image_ids =
+        ImagesWithPoints(*reconstruction);
+    if (image_ids.size() < 2) {
+      return Status::Error(
+          "Bundle adjustment needs at least two registered images with 3D "
+          "points.");
+    }
+    const Gauge gauge = ChooseGauge(*reconstruction, image_ids);
+
+    int num_fixed_rotation_iterations = 0;
+    if (!options.skip_fixed_rotation_stage) {
+      const Status status =
+          SolveWithFixedRotations(ba_options, image_ids, gauge, reconstruction,
+                                  &num_fixed_rotation_iterations);
+      if (!status.ok()) return status;
+      if (interrupt.IsStopped()) return Status::Cancelled();
+    }
+    int num_joint_iterations = 0;
+    if (!options.skip_joint_stage) {
+      const Status status = SolveJoint(ba_options, image_ids, gauge,
+                                       reconstruction, &num_joint_iterations);
+      if (!status.ok()) return status;
+      if (interrupt.IsStopped()) return Status::Cancelled();
+    }
+    reconstruction->Normalize();
+
+    // Filter with a tightening threshold. If few tracks change, tighten
+    // without another solve; another round only runs when the filter removed
+    // enough to make re-solving worthwhile (the 0.1 % rule counts tracks
+    // touched, cumulatively over the levels tried after this round's solve).
+    const size_t num_tracks = reconstruction->NumPoints3D();
+    size_t num_changed_tracks = 0;
+    bool converged = false;
+    for (;;) {
+      num_changed_tracks += FilterAndCountChangedTracks(
+          threshold_multiplier(level) * options.max_normalized_reproj_error,
+          reconstruction);
+      if (num_changed_tracks >
+          options.min_changed_tracks_ratio * static_cast<double>(num_tracks)) {
+        break;
+      }
+      if (level + 1 >= options.num_rounds) {
+        converged = true;
+        break;
+      }
+      ++level;
+    }
+    std::cout << "Global BA round: " << num_fixed_rotation_iterations
+              << " fixed-rotation + " << num_joint_iterations
+              << " joint iterations, " << num_changed_tracks << " / "
+              << num_tracks << " tracks changed, "
+              << reconstruction->NumPoints3D() << " points, "
+              << SecondsSince(round_start) << " s" << std::endl;
+    if (on_round_done) on_round_done();
+    if (converged) break;
+  }
+
+  FilterObservationsByNormalizedReprojectionError(
+      reconstruction, options.max_normalized_reproj_error);
+  FilterPointsByTriangulationAngle(reconstruction, options.min_tri_angle_deg);
+  return Status::Ok();
+}
+
+}  // namespace glomap

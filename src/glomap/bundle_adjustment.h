@@ -1,0 +1,79 @@
+// Global bundle adjustment rounds after global positioning (paper Sec. 3,
+// "Global Bundle Adjustment"; glomap.md §2.7): each round first refines
+// positions, points and intrinsics with the rotations held fixed (rotation
+// averaging already gave good rotations, and freezing them keeps the first
+// solve from falling into a bad minimum while positions are still coarse),
+// then refines everything jointly, normalizes the scene and filters
+// observations by reprojection error with a threshold that tightens from
+// round to round.
+#pragma once
+
+#include <functional>
+
+#include "base/reconstruction.h"
+#include "glomap/status.h"
+
+namespace glomap {
+
+struct GlobalBundleAdjustmentOptions {
+  // Maximum number of rounds (rotation-fixed solve, joint solve, filtering).
+  int num_rounds = 3;
+
+  // Scale of the robust loss on the reprojection residual, in pixels. The
+  // loss is Ceres' soft-L1 (quadratic below the scale, linear above): the
+  // reference uses Huber(1 px), which COLMAP 3.8's BundleAdjuster does not
+  // offer, and soft-L1 is its smooth equivalent. Cauchy would be more
+  // aggressive, but it down-weights correct observations whose error is
+  // still large right after global positioning.
+  double loss_scale_px = 1.0;
+
+  // Maximum Ceres iterations per solve (each round has up to two solves).
+  int max_num_iterations = 50;
+
+  // A solve stops once the relative cost decrease of an iteration falls
+  // below this value (Ceres' function_tolerance; the reference uses 1e-5).
+  double function_tolerance = 1e-5;
+
+  // Which groups of intrinsic parameters are refined (all cameras).
+  bool refine_focal_length = true;
+  bool refine_principal_point = false;
+  bool refine_extra_params = true;
+
+  // Observations whose reprojection error on the normalized image plane
+  // (pixels / focal length) exceeds this value times 3, 2, 1 in successive
+  // rounds are removed (glomap.md §2.7; 0.01 is about 10 px at f = 1000 px).
+  // Normalized units keep the threshold meaningful for any image size.
+  double max_normalized_reproj_error = 0.01;
+
+  // After the last round, points whose largest triangulation angle is below
+  // this are deleted (their depth is poorly constrained).
+  double min_tri_angle_deg = 1.0;
+
+  // Rounds stop once the tracks that lost observations in a round are fewer
+  // than this fraction of all tracks, even at the tightest threshold.
+  double min_changed_tracks_ratio = 0.001;
+
+  // Skip the solve with fixed rotations, or the joint solve, in every round.
+  bool skip_fixed_rotation_stage = false;
+  bool skip_joint_stage = false;
+
+  // Ceres threads; -1 uses all cores.
+  int num_threads = -1;
+
+  bool Check() const;
+};
+
+// Runs the BA rounds on the registered images and points of `reconstruction`
+// (camera intrinsics are shared per camera). The gauge is fixed by holding
+// one image's pose and one translation coordinate of a second image constant;
+// the scene is normalized (Reconstruction::Normalize) after each round.
+// `on_round_done` is called after each round (the GUI refreshes its viewer).
+// Returns Cancelled if `interrupt` fires (the reconstruction then holds the
+// state of the last finished Ceres iteration and is consistent), an error if
+// there are fewer than two registered images with points or a solve fails.
+Status RunGlobalBundleAdjustment(
+    const GlobalBundleAdjustmentOptions& options,
+    colmap::Reconstruction* reconstruction, const Interrupt& interrupt = {},
+    const std::function<void()>& on_round_done = {});
+
+}  // namespace glomap

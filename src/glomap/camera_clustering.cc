@@ -1,0 +1,211 @@
+#include "glomap/camera_clustering.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+
+namespace glomap {
+namespace {
+
+// Union-find over dense indices; the smaller index becomes the root so that
+// the result never depends on the order of unions.
+class DisjointSets {
+ public:
+  explicit DisjointSets(size_t size) : parents_(size) {
+    for (size_t i = 0; i < size; ++i) parents_[i] = i;
+  }
+
+  size_t Find(size_t i) {
+    while (parents_[i] != i) {
+      parents_[i] = parents_[parents_[i]];
+      i = parents_[i];
+    }
+    return i;
+  }
+
+  void Union(size_t i, size_t j) {
+    i = Find(i);
+    j = Find(j);
+    if (i == j) return;
+    if (i < j) {
+      parents_[j] = i;
+    } else {
+      parents_[i] = j;
+    }
+  }
+
+ private:
+  std::vector<size_t> parents_;
+};
+
+struct Edge {
+  size_t idx1;  // Dense indices into the sorted registered image ids.
+  size_t idx2;
+  double weight;  // Number of shared 3D points.
+};
+
+double Median(std::vector<double> values) {
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  double median = values[mid];
+  if (values.size() % 2 == 0) {
+    median = 0.5 *
+             (median + *std::max_element(values.begin(), values.begin() + mid));
+  }
+  return median;
+}
+
+}  // namespace
+
+bool CameraClusteringOptions::Check() const {
+  return min_covisible_points >= 1 && min_edge_weight >= 0 &&
+         merge_weight_ratio > 0 && min_num_merge_edges >= 1 &&
+         max_merge_rounds >= 0 && min_cluster_size >= 1;
+}
+
+std::vector<std::vector<colmap::image_t>> ClusterCameras(
+    const CameraClusteringOptions& options,
+    const colmap::Reconstruction& reconstruction) {
+  if (!options.Check()) return {};
+  std::vector<colmap::image_t> image_ids = reconstruction.RegImageIds();
+  std::sort(image_ids.begin(), image_ids.end());
+  std::unordered_map<colmap::image_t, size_t> image_idxs;
+  for (size_t i = 0; i < image_ids.size(); ++i) image_idxs[image_ids[i]] = i;
+
+  // Covisibility: each point counts once for every pair of distinct
+  // registered images that observe it.
+  std::unordered_map<uint64_t, int> covisibility;
+  std::vector<size_t> track_idxs;
+  for (const auto& point3D : reconstruction.Points3D()) {
+    track_idxs.clear();
+    for (const colmap::TrackElement& el : point3D.second.Track().Elements()) {
+      const auto it = image_idxs.find(el.image_id);
+      if (it != image_idxs.end()) track_idxs.push_back(it->second);
+    }
+    std::sort(track_idxs.begin(), track_idxs.end());
+    track_idxs.erase(std::unique(track_idxs.begin(), track_idxs.end()),
+                     track_idxs.end());
+    for (size_t i = 0; i < track_idxs.size(); ++i) {
+      for (size_t j = i + 1; j < track_idxs.size(); ++j) {
+        ++covisibility[(static_cast<uint64_t>(track_idxs[i]) << 32) |
+                       track_idxs[j]];
+      }
+    }
+  }
+  std::vector<Edge> edges;
+  for (const auto& [key, count] : covisibility) {
+    if (count >= options.min_covisible_points) {
+      edges.push_back({static_cast<size_t>(key >> 32),
+                       static_cast<size_t>(key & 0xFFFFFFFFu),
+                       static_cast<double>(count)});
+    }
+  }
+  std::sort(edges.begin(), edges.end(), [](const Edge& a, const Edge& b) {
+    return std::make_pair(a.idx1, a.idx2) < std::make_pair(b.idx1, b.idx2);
+  });
+
+  DisjointSets clusters(image_ids.size());
+  if (!edges.empty()) {
+    std::vector<double> weights;
+    weights.reserve(edges.size());
+    for (const Edge& edge : edges) weights.push_back(edge.weight);
+    const double median = Median(weights);
+    for (double& weight : weights) weight = std::abs(weight - median);
+    const double mad = Median(weights);
+    const double tau = std::max(median - mad, options.min_edge_weight);
+
+    // Strong components.
+    for (const Edge& edge : edges) {
+      if (edge.weight >= tau) clusters.Union(edge.idx1, edge.idx2);
+    }
+
+    // Merge clusters joined by several moderately strong edges; a single
+    // edge is not enough, since one wrongly matched pair can be strong.
+    const double merge_weight = options.merge_weight_ratio * tau;
+    for (int round = 0; round < options.max_merge_rounds; ++round) {
+      std::map<std::pair<size_t, size_t>, int> num_links;
+      for (const Edge& edge : edges) {
+        if (edge.weight < merge_weight) continue;
+        size_t root1 = clusters.Find(edge.idx1);
+        size_t root2 = clusters.Find(edge.idx2);
+        if (root1 == root2) continue;
+        if (root1 > root2) std::swap(root1, root2);
+        ++num_links[{root1, root2}];
+      }
+      bool merged = false;
+      for (const auto& [roots, count] : num_links) {
+        if (count >= options.min_num_merge_edges) {
+          clusters.Union(roots.first, roots.second);
+          merged = true;
+        }
+      }
+      if (!merged) break;
+    }
+  }
+
+  std::map<size_t, std::vector<colmap::image_t>> members;
+  for (size_t i = 0; i < image_ids.size(); ++i) {
+    members[clusters.Find(i)].push_back(image_ids[i]);  // Stays sorted.
+  }
+  std::vector<std::vector<colmap::image_t>> result;
+  for (auto& [root, cluster] : members) {
+    if (static_cast<int>(cluster.size()) >= options.min_cluster_size) {
+      result.push_back(std::move(cluster));
+    }
+  }
+  std::sort(result.begin(), result.end(),
+            [](const std::vector<colmap::image_t>& a,
+               const std::vector<colmap::image_t>& b) {
+              if (a.size() != b.size()) return a.size() > b.size();
+              return a.front() < b.front();
+            });
+  return result;
+}
+
+colmap::Reconstruction ExtractCluster(
+    const colmap::Reconstruction& reconstruction,
+    const std::vector<colmap::image_t>& cluster_image_ids) {
+  colmap::Reconstruction cluster = reconstruction;
+  std::unordered_set<colmap::image_t> in_cluster;
+  for (const colmap::image_t image_id : cluster_image_ids) {
+    if (reconstruction.ExistsImage(image_id) &&
+        reconstruction.IsImageRegistered(image_id)) {
+      in_cluster.insert(image_id);
+    }
+  }
+  // Observations outside the cluster go first; DeleteObservation deletes a
+  // point as soon as fewer than two observations would remain.
+  std::vector<colmap::point3D_t> point3D_ids;
+  point3D_ids.reserve(cluster.NumPoints3D());
+  for (const auto& point3D : cluster.Points3D()) {
+    point3D_ids.push_back(point3D.first);
+  }
+  std::sort(point3D_ids.begin(), point3D_ids.end());
+  std::vector<colmap::TrackElement> outside;
+  for (const colmap::point3D_t point3D_id : point3D_ids) {
+    outside.clear();
+    for (const colmap::TrackElement& el :
+         cluster.Point3D(point3D_id).Track().Elements()) {
+      if (in_cluster.count(el.image_id) == 0) outside.push_back(el);
+    }
+    for (const colmap::TrackElement& el : outside) {
+      if (!cluster.ExistsPoint3D(point3D_id)) break;
+      cluster.DeleteObservation(el.image_id, el.point2D_idx);
+    }
+  }
+  std::vector<colmap::image_t> others;
+  for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
+    if (in_cluster.count(image_id) == 0) others.push_back(image_id);
+  }
+  std::sort(others.begin(), others.end());
+  for (const colmap::image_t image_id : others) {
+    cluster.DeRegisterImage(image_id);
+  }
+  return cluster;
+}
+
+}  // namespace glomap

@@ -1,0 +1,49 @@
+// The pipeline's input edge: reads a COLMAP 3.8 database without ever
+// changing it. colmap::Database opens read-write, creates missing tables and
+// sets pragmas (journal mode, user_version), so a user's database would be
+// modified just by running the mapper; this reader talks to SQLite directly
+// through a read-only (and, when safe, immutable) connection instead.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "base/reconstruction.h"
+#include "glomap/status.h"
+#include "glomap/view_graph.h"
+
+namespace glomap {
+
+struct DatabaseReaderOptions {
+  // Pairs with fewer verified (inlier) matches are ignored
+  // (COLMAP's Mapper.min_num_matches).
+  int min_num_matches = 15;
+
+  // Whether to drop pairs that the matcher flagged as WATERMARK
+  // (COLMAP's Mapper.ignore_watermarks).
+  bool ignore_watermarks = false;
+
+  // When non-empty, only images with these names are read (and only pairs
+  // between two of them); names that are not in the database are ignored.
+  std::vector<std::string> image_names;
+
+  bool Check() const;
+};
+
+// Reads the database at `database_path` into an empty `reconstruction` and
+// `view_graph`:
+//  - the cameras used by the read images (params as stored, prior flag);
+//  - the images with their keypoints as Points2D (x, y in pixels), not
+//    registered, identity pose, pose priors as stored;
+//  - one ImagePair per verified pair: a two_view_geometries row with at
+//    least `min_num_matches` inliers whose config is not UNDEFINED,
+//    DEGENERATE or MULTIPLE (nor WATERMARK when `ignore_watermarks`), with
+//    config, F, E, H (column-major), the inlier matches and the number of raw
+//    matches. Inlier matches with keypoint indices out of range are dropped.
+// Every problem with the file or its content is returned as a one-line error.
+Status ReadDatabase(const std::string& database_path,
+                    const DatabaseReaderOptions& options,
+                    colmap::Reconstruction* reconstruction,
+                    ViewGraph* view_graph);
+
+}  // namespace glomap

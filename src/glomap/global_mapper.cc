@@ -1,0 +1,259 @@
+#include "glomap/global_mapper.h"
+
+#include <algorithm>
+#include <iomanip>
+#include <sstream>
+#include <unordered_set>
+
+#include "glomap/track_filters.h"
+#include "util/logging.h"
+#include "util/timer.h"
+
+namespace glomap {
+namespace {
+
+// Times one stage and logs "Stage <name>: <seconds> s (<counts>)", the line
+// the benchmark script parses.
+class StageTimer {
+ public:
+  StageTimer(const std::string& name, int index, GlobalMapperSummary* summary,
+             const GlobalMapperCallbacks& callbacks)
+      : name_(name), summary_(summary) {
+    LOG(INFO) << "Stage " << name_ << " ...";
+    if (callbacks.on_stage_begin) callbacks.on_stage_begin(name, index);
+    timer_.Start();
+  }
+
+  void Finish(const std::string& counts) {
+    StageSummary stage;
+    stage.name = name_;
+    stage.seconds = timer_.ElapsedSeconds();
+    stage.counts = counts;
+    LOG(INFO) << "Stage " << name_ << ": " << std::fixed << std::setprecision(3)
+              << stage.seconds << " s (" << counts << ")";
+    summary_->stages.push_back(stage);
+  }
+
+ private:
+  std::string name_;
+  GlobalMapperSummary* summary_;
+  colmap::Timer timer_;
+};
+
+std::string Counts(std::initializer_list<std::pair<const char*, size_t>> kv) {
+  std::ostringstream out;
+  bool first = true;
+  for (const auto& [key, value] : kv) {
+    if (!first) out << ", ";
+    out << key << "=" << value;
+    first = false;
+  }
+  return out.str();
+}
+
+}  // namespace
+
+bool GlobalMapperOptions::Check() const {
+  return database.Check() && view_graph_calibration.Check() &&
+         relative_pose.Check() && rotation_averaging.Check() &&
+         tracks.Check() && global_positioning.Check() &&
+         bundle_adjustment.Check() && retriangulation.Check() &&
+         clustering.Check() && min_model_size >= 2;
+}
+
+GlobalMapper::GlobalMapper(GlobalMapperOptions options)
+    : options_(std::move(options)) {
+  // One seed and one thread count for the whole pipeline.
+  options_.relative_pose.random_seed = options_.random_seed;
+  options_.global_positioning.random_seed = options_.random_seed + 1;
+  options_.relative_pose.num_threads = options_.num_threads;
+  options_.global_positioning.num_threads = options_.num_threads;
+  options_.bundle_adjustment.num_threads = options_.num_threads;
+}
+
+Status GlobalMapper::Run(const std::string& database_path,
+                         colmap::Reconstruction* work,
+                         std::vector<colmap::Reconstruction>* models,
+                         const GlobalMapperCallbacks& callbacks) {
+  summary_ = GlobalMapperSummary();
+  models->clear();
+  colmap::Timer total_timer;
+  total_timer.Start();
+  const Interrupt& interrupt = callbacks.interrupt;
+  auto model_changed = [&callbacks]() {
+    if (callbacks.on_model_changed) callbacks.on_model_changed();
+  };
+  ViewGraph view_graph;
+
+  // 1. View graph from the database (read-only).
+  {
+    StageTimer stage("Database", 0, &summary_, callbacks);
+    const Status status =
+        ReadDatabase(database_path, options_.database, work, &view_graph);
+    if (!status.ok()) return status;
+    summary_.num_images = work->NumImages();
+    stage.Finish(Counts({{"cameras", work->NumCameras()},
+                         {"images", work->NumImages()},
+                         {"pairs", view_graph.NumPairs()}}));
+  }
+  if (interrupt.IsStopped()) return Status::Cancelled();
+
+  // 2. View-graph calibration of focal lengths without a prior (Sec. 3).
+  if (!options_.skip_view_graph_calibration) {
+    StageTimer stage("View graph calibration", 1, &summary_, callbacks);
+    size_t num_invalidated = 0;
+    const Status status = CalibrateViewGraph(
+        options_.view_graph_calibration, work, &view_graph, &num_invalidated);
+    if (!status.ok()) return status;
+    stage.Finish(Counts({{"pairs_rejected", num_invalidated},
+                         {"pairs_kept", view_graph.NumValidPairs()}}));
+  }
+  if (interrupt.IsStopped()) return Status::Cancelled();
+
+  // 3. Relative poses, inlier re-scoring, largest connected component.
+  {
+    StageTimer stage("Relative poses", 2, &summary_, callbacks);
+    size_t num_invalidated = 0;
+    const Status status = EstimateRelativePoses(options_.relative_pose, *work,
+                                                &view_graph, &num_invalidated);
+    if (!status.ok()) return status;
+    const std::vector<colmap::image_t> component =
+        view_graph.LargestConnectedComponent();
+    if (component.size() < 2) {
+      return Status::Error(
+          "No two images share enough consistent matches to start a "
+          "reconstruction (the view graph has no connected pair).");
+    }
+    const size_t num_connected_images = component.size();
+    if (num_connected_images < view_graph.ImagesWithValidPairs().size() ||
+        num_connected_images < work->NumImages()) {
+      LOG(WARNING) << "The view graph is disconnected: "
+                   << work->NumImages() - num_connected_images << " of "
+                   << work->NumImages()
+                   << " images are not connected to the largest component "
+                      "and cannot be registered.";
+    }
+    view_graph.InvalidatePairsOutside(std::unordered_set<colmap::image_t>(
+        component.begin(), component.end()));
+    stage.Finish(Counts({{"pairs_rejected", num_invalidated},
+                         {"pairs_kept", view_graph.NumValidPairs()},
+                         {"images_connected", num_connected_images}}));
+  }
+  if (interrupt.IsStopped()) return Status::Cancelled();
+
+  // 4. Rotation averaging with rejection of inconsistent pairs.
+  {
+    StageTimer stage("Rotation averaging", 3, &summary_, callbacks);
+    size_t num_rejected = 0;
+    const Status status = AverageRotations(options_.rotation_averaging,
+                                           &view_graph, work, &num_rejected);
+    if (!status.ok()) return status;
+    stage.Finish(Counts({{"pairs_rejected", num_rejected},
+                         {"pairs_kept", view_graph.NumValidPairs()},
+                         {"images_registered", work->NumRegImages()}}));
+  }
+  if (interrupt.IsStopped()) return Status::Cancelled();
+
+  // 5. Tracks from the filtered inlier matches.
+  TrackStore tracks;
+  {
+    StageTimer stage("Tracks", 4, &summary_, callbacks);
+    size_t num_inconsistent = 0;
+    tracks =
+        EstablishTracks(options_.tracks, view_graph, *work, &num_inconsistent);
+    if (tracks.NumTracks() == 0) {
+      return Status::Error(
+          "No feature track is seen in three or more registered images: "
+          "the matches are too sparse to reconstruct.");
+    }
+    stage.Finish(Counts({{"tracks", tracks.NumTracks()},
+                         {"observations", tracks.NumObservations()},
+                         {"inconsistent_tracks", num_inconsistent}}));
+  }
+  if (interrupt.IsStopped()) return Status::Cancelled();
+
+  // 6. Global positioning: cameras and points jointly from random
+  // initialisation (Sec. 3, the bounded ray objective).
+  {
+    StageTimer stage("Global positioning", 5, &summary_, callbacks);
+    const Status status = RunGlobalPositioning(options_.global_positioning,
+                                               tracks, work, interrupt);
+    if (!status.ok()) return status;
+    tracks.Clear();
+    work->Normalize();
+    stage.Finish(Counts({{"images_registered", work->NumRegImages()},
+                         {"points", work->NumPoints3D()},
+                         {"observations", work->ComputeNumObservations()}}));
+    model_changed();
+  }
+  if (interrupt.IsStopped()) return Status::Cancelled();
+
+  // 7. Rounds of global bundle adjustment with filtering.
+  if (!options_.skip_bundle_adjustment) {
+    StageTimer stage("Bundle adjustment", 6, &summary_, callbacks);
+    const Status status = RunGlobalBundleAdjustment(
+        options_.bundle_adjustment, work, interrupt, model_changed);
+    if (!status.ok()) return status;
+    stage.Finish(Counts({{"images_registered", work->NumRegImages()},
+                         {"points", work->NumPoints3D()},
+                         {"observations", work->ComputeNumObservations()}}));
+  }
+  if (interrupt.IsStopped()) return Status::Cancelled();
+
+  // 8. Retriangulation on the database matches, then bundle adjustment.
+  if (!options_.skip_retriangulation) {
+    StageTimer stage("Retriangulation", 7, &summary_, callbacks);
+    const Status status =
+        Retriangulate(options_.retriangulation, view_graph, work, interrupt);
+    if (!status.ok()) return status;
+    stage.Finish(Counts({{"images_registered", work->NumRegImages()},
+                         {"points", work->NumPoints3D()},
+                         {"observations", work->ComputeNumObservations()}}));
+    model_changed();
+  }
+  if (interrupt.IsStopped()) return Status::Cancelled();
+
+  // 9. Camera clustering into separate models, then output preparation.
+  {
+    StageTimer stage("Camera clustering", 8, &summary_, callbacks);
+    std::vector<std::vector<colmap::image_t>> clusters;
+    if (options_.skip_clustering) {
+      clusters.push_back(work->RegImageIds());
+      std::sort(clusters.back().begin(), clusters.back().end());
+    } else {
+      clusters = ClusterCameras(options_.clustering, *work);
+    }
+    for (const auto& cluster : clusters) {
+      if (static_cast<int>(cluster.size()) < options_.min_model_size) continue;
+      colmap::Reconstruction model =
+          clusters.size() == 1 ? *work : ExtractCluster(*work, cluster);
+      model.Normalize();
+      UpdatePointErrors(&model);
+      if (!options_.image_path.empty()) {
+        model.ExtractColorsForAllImages(options_.image_path);
+      }
+      models->push_back(std::move(model));
+    }
+    if (models->empty()) {
+      return Status::Error(
+          "Nothing was reconstructed: no camera cluster has at least " +
+          std::to_string(options_.min_model_size) + " images.");
+    }
+    size_t num_registered = 0;
+    for (const auto& model : *models) num_registered += model.NumRegImages();
+    summary_.num_registered_images = num_registered;
+    stage.Finish(Counts({{"models", models->size()},
+                         {"images_registered", num_registered},
+                         {"images", work->NumImages()}}));
+  }
+  summary_.total_seconds = total_timer.ElapsedSeconds();
+  LOG(INFO) << "Global mapper finished in " << std::fixed
+            << std::setprecision(3) << summary_.total_seconds
+            << " s: " << models->size() << " model(s), "
+            << summary_.num_registered_images << " of " << summary_.num_images
+            << " images registered.";
+  model_changed();
+  return Status::Ok();
+}
+
+}  // namespace glomap

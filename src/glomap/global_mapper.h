@@ -1,0 +1,104 @@
+// The global mapper: the whole pipeline of "Global Structure-from-Motion
+// Revisited" (Pan et al., ECCV 2024), stage by stage, on COLMAP 3.8's classes.
+// It knows nothing of the command line, the GUI or the output folder: it takes
+// a database path and options and returns models (one per camera cluster).
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "base/reconstruction.h"
+#include "glomap/bundle_adjustment.h"
+#include "glomap/camera_clustering.h"
+#include "glomap/database_reader.h"
+#include "glomap/global_positioning.h"
+#include "glomap/relative_pose.h"
+#include "glomap/retriangulation.h"
+#include "glomap/rotation_averaging.h"
+#include "glomap/status.h"
+#include "glomap/track_establishment.h"
+#include "glomap/view_graph.h"
+#include "glomap/view_graph_calibration.h"
+
+namespace glomap {
+
+struct GlobalMapperOptions {
+  // Which images and pairs are read from the database.
+  DatabaseReaderOptions database;
+  // Stage options, in pipeline order.
+  ViewGraphCalibrationOptions view_graph_calibration;
+  RelativePoseOptions relative_pose;
+  RotationAveragingOptions rotation_averaging;
+  TrackEstablishmentOptions tracks;
+  GlobalPositioningOptions global_positioning;
+  GlobalBundleAdjustmentOptions bundle_adjustment;
+  RetriangulationOptions retriangulation;
+  CameraClusteringOptions clustering;
+
+  // Stage switches (for experiments; every stage runs by default).
+  bool skip_view_graph_calibration = false;
+  bool skip_bundle_adjustment = false;
+  bool skip_retriangulation = false;
+  bool skip_clustering = false;
+
+  // Models (camera clusters) with fewer registered images are discarded.
+  int min_model_size = 3;
+  // Seed of every random choice (RANSAC, random initialisation): the same
+  // input and seed give the same model.
+  int random_seed = 0;
+  // Threads for the parallel stages (-1: all cores).
+  int num_threads = -1;
+  // Folder of the images, for point colours; empty: no colours.
+  std::string image_path;
+
+  bool Check() const;
+};
+
+// Wall time and key counts of one stage, for logs and benchmarks.
+struct StageSummary {
+  std::string name;
+  double seconds = 0;
+  std::string counts;
+};
+
+struct GlobalMapperSummary {
+  std::vector<StageSummary> stages;
+  double total_seconds = 0;
+  size_t num_images = 0;
+  size_t num_registered_images = 0;
+};
+
+// Hooks for a caller that shows progress (the GUI) or can cancel.
+struct GlobalMapperCallbacks {
+  // Called when a stage starts, with its name and index (0-based) of
+  // `kNumStages`.
+  std::function<void(const std::string& stage, int index)> on_stage_begin;
+  // Called whenever the working model is consistent and worth showing:
+  // after global positioning, after each bundle-adjustment round, at the end.
+  std::function<void()> on_model_changed;
+  Interrupt interrupt;
+};
+
+class GlobalMapper {
+ public:
+  static constexpr int kNumStages = 9;
+
+  explicit GlobalMapper(GlobalMapperOptions options);
+
+  // Runs the pipeline on the database at `database_path` (opened read-only).
+  // `work` is the model being built (all database images; registered ones
+  // have poses), so that a viewer can show it while the pipeline runs. On
+  // success, `models` holds one model per camera cluster, largest first.
+  Status Run(const std::string& database_path, colmap::Reconstruction* work,
+             std::vector<colmap::Reconstruction>* models,
+             const GlobalMapperCallbacks& callbacks = {});
+
+  const GlobalMapperSummary& Summary() const { return summary_; }
+
+ private:
+  GlobalMapperOptions options_;
+  GlobalMapperSummary summary_;
+};
+
+}  // namespace glomap

@@ -1,0 +1,415 @@
+#include "glomap/relative_pose.h"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "base/cost_functions.h"
+#include "base/essential_matrix.h"
+#include "base/pose.h"
+#include "estimators/essential_matrix.h"
+#include "estimators/two_view_geometry.h"
+#include "optim/loransac.h"
+#include "util/random.h"
+#include "util/threading.h"
+
+namespace glomap {
+namespace {
+
+using TwoViewGeometry = colmap::TwoViewGeometry;
+
+// Sampson distance (not squared, unlike COLMAP's RelativePoseCostFunction,
+// whose squared residual would make the refinement minimise error^4) of one
+// correspondence in normalised image coordinates.
+struct SampsonErrorCost {
+  SampsonErrorCost(const Eigen::Vector2d& x1, const Eigen::Vector2d& x2)
+      : x1(x1), x2(x2) {}
+
+  template <typename T>
+  bool operator()(const T* const qvec, const T* const tvec, T* residual) const {
+    Eigen::Matrix<T, 3, 3, Eigen::RowMajor> R;
+    ceres::QuaternionToRotation(qvec, R.data());
+    Eigen::Matrix<T, 3, 3> t_cross;
+    t_cross << T(0), -tvec[2], tvec[1], tvec[2], T(0), -tvec[0], -tvec[1],
+        tvec[0], T(0);
+    const Eigen::Matrix<T, 3, 3> E = t_cross * R;
+    const Eigen::Matrix<T, 3, 1> x1_h(T(x1(0)), T(x1(1)), T(1));
+    const Eigen::Matrix<T, 3, 1> x2_h(T(x2(0)), T(x2(1)), T(1));
+    const Eigen::Matrix<T, 3, 1> Ex1 = E * x1_h;
+    const Eigen::Matrix<T, 3, 1> Etx2 = E.transpose() * x2_h;
+    const T x2tEx1 = x2_h.dot(Ex1);
+    // The tiny constant keeps the square root differentiable when a point
+    // lies on the epipole.
+    const T denominator =
+        ceres::sqrt(Ex1(0) * Ex1(0) + Ex1(1) * Ex1(1) + Etx2(0) * Etx2(0) +
+                    Etx2(1) * Etx2(1) + T(1e-20));
+    residual[0] = x2tEx1 / denominator;
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Eigen::Vector2d& x1,
+                                     const Eigen::Vector2d& x2) {
+    return new ceres::AutoDiffCostFunction<SampsonErrorCost, 1, 4, 3>(
+        new SampsonErrorCost(x1, x2));
+  }
+
+  const Eigen::Vector2d x1;
+  const Eigen::Vector2d x2;
+};
+
+Eigen::Matrix3d CrossProductMatrix(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v(2), v(1), v(2), 0, -v(0), -v(1), v(0), 0;
+  return m;
+}
+
+double SquaredSampsonError(const Eigen::Matrix3d& E, const Eigen::Vector3d& x1,
+                           const Eigen::Vector3d& x2) {
+  const Eigen::Vector3d Ex1 = E * x1;
+  const Eigen::Vector3d Etx2 = E.transpose() * x2;
+  const double x2tEx1 = x2.dot(Ex1);
+  const double denominator =
+      Ex1(0) * Ex1(0) + Ex1(1) * Ex1(1) + Etx2(0) * Etx2(0) + Etx2(1) * Etx2(1);
+  if (!(denominator > 0)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  return x2tEx1 * x2tEx1 / denominator;
+}
+
+// Everything one pair's worker needs, gathered before the parallel section.
+struct PairTask {
+  colmap::image_pair_t pair_id = 0;
+  ImagePair* pair = nullptr;
+  const colmap::Camera* camera1 = nullptr;
+  const colmap::Camera* camera2 = nullptr;
+  const colmap::Image* image1 = nullptr;
+  const colmap::Image* image2 = nullptr;
+  const std::vector<Eigen::Vector2d>* normalized1 = nullptr;
+  const std::vector<Eigen::Vector2d>* normalized2 = nullptr;
+};
+
+// Refines cam2_from_cam1 on the RANSAC inliers (robust Sampson distance).
+void RefinePose(const RelativePoseOptions& options,
+                const std::vector<Eigen::Vector2d>& inliers1,
+                const std::vector<Eigen::Vector2d>& inliers2, double loss_scale,
+                Eigen::Vector4d* qvec, Eigen::Vector3d* tvec) {
+  Eigen::Vector4d refined_qvec = *qvec;
+  Eigen::Vector3d refined_tvec = *tvec;
+  ceres::Problem problem;
+  ceres::LossFunction* loss = new ceres::CauchyLoss(loss_scale);
+  for (size_t i = 0; i < inliers1.size(); ++i) {
+    problem.AddResidualBlock(SampsonErrorCost::Create(inliers1[i], inliers2[i]),
+                             loss, refined_qvec.data(), refined_tvec.data());
+  }
+  colmap::SetQuaternionManifold(&problem, refined_qvec.data());
+  colmap::SetSphereManifold<3>(&problem, refined_tvec.data());
+  ceres::Solver::Options solver_options;
+  solver_options.max_num_iterations = options.max_num_refinement_iterations;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.num_threads = 1;  // Pairs already run in parallel.
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  if (summary.IsSolutionUsable() && refined_qvec.allFinite() &&
+      refined_tvec.allFinite() && refined_tvec.norm() > 0) {
+    *qvec = colmap::NormalizeQuaternion(refined_qvec);
+    *tvec = refined_tvec.normalized();
+  }
+}
+
+// Estimates the pose and re-scores the matches of one pair; returns whether
+// the pair stays valid.
+bool ProcessPair(const RelativePoseOptions& options, const PairTask& task) {
+  ImagePair& pair = *task.pair;
+  pair.inlier_idxs.clear();
+  pair.has_relative_pose = false;
+
+  const int num_raw_matches = pair.num_raw_matches > 0
+                                  ? pair.num_raw_matches
+                                  : static_cast<int>(pair.matches.size());
+  if (static_cast<int>(pair.matches.size()) < options.min_num_inliers ||
+      pair.matches.size() <
+          static_cast<size_t>(
+              colmap::EssentialMatrixFivePointEstimator::kMinNumSamples)) {
+    return false;  // Can never reach the minimum inlier count.
+  }
+
+  const double focal1 = task.camera1->MeanFocalLength();
+  const double focal2 = task.camera2->MeanFocalLength();
+  if (!(focal1 > 0) || !(focal2 > 0) || !std::isfinite(focal1) ||
+      !std::isfinite(focal2)) {
+    return false;
+  }
+  // Pixel thresholds to normalised units (the reference's convention).
+  const double px_to_normalized = 0.5 * (1.0 / focal1 + 1.0 / focal2);
+
+  // Matches with keypoint indices out of range are never inliers.
+  std::vector<int> match_idxs;
+  std::vector<Eigen::Vector2d> points1;
+  std::vector<Eigen::Vector2d> points2;
+  match_idxs.reserve(pair.matches.size());
+  points1.reserve(pair.matches.size());
+  points2.reserve(pair.matches.size());
+  for (size_t i = 0; i < pair.matches.size(); ++i) {
+    const colmap::FeatureMatch& match = pair.matches[i];
+    if (match.point2D_idx1 >= task.normalized1->size() ||
+        match.point2D_idx2 >= task.normalized2->size()) {
+      continue;
+    }
+    match_idxs.push_back(static_cast<int>(i));
+    points1.push_back((*task.normalized1)[match.point2D_idx1]);
+    points2.push_back((*task.normalized2)[match.point2D_idx2]);
+  }
+  if (static_cast<int>(points1.size()) < options.min_num_inliers ||
+      points1.size() <
+          static_cast<size_t>(
+              colmap::EssentialMatrixFivePointEstimator::kMinNumSamples)) {
+    return false;
+  }
+
+  // COLMAP's RANSAC samples from a thread-local PRNG; seeding it per pair
+  // makes the result independent of which thread runs the pair.
+  const uint64_t pair_id = task.pair_id;
+  colmap::SetPRNGSeed(static_cast<unsigned>(options.random_seed) ^
+                      static_cast<unsigned>(pair_id ^ (pair_id >> 32)));
+
+  colmap::RANSACOptions ransac_options;
+  ransac_options.max_error = options.max_epipolar_error_px * px_to_normalized;
+  ransac_options.confidence = options.confidence;
+  ransac_options.min_num_trials = options.min_num_trials;
+  ransac_options.max_num_trials = options.max_num_trials;
+  colmap::LORANSAC<colmap::EssentialMatrixFivePointEstimator,
+                   colmap::EssentialMatrixFivePointEstimator>
+      ransac(ransac_options);
+  const auto report = ransac.Estimate(points1, points2);
+  if (!report.success || !report.model.allFinite()) {
+    return false;
+  }
+
+  std::vector<Eigen::Vector2d> inliers1;
+  std::vector<Eigen::Vector2d> inliers2;
+  inliers1.reserve(report.support.num_inliers);
+  inliers2.reserve(report.support.num_inliers);
+  for (size_t i = 0; i < points1.size(); ++i) {
+    if (report.inlier_mask[i]) {
+      inliers1.push_back(points1[i]);
+      inliers2.push_back(points2[i]);
+    }
+  }
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  std::vector<Eigen::Vector3d> points3D;
+  colmap::PoseFromEssentialMatrix(report.model, inliers1, inliers2, &R, &t,
+                                  &points3D);
+  if (points3D.empty() || !R.allFinite() || !t.allFinite() || !(t.norm() > 0)) {
+    return false;
+  }
+  Eigen::Vector4d qvec = colmap::RotationMatrixToQuaternion(R);
+  Eigen::Vector3d tvec = t.normalized();
+  RefinePose(options, inliers1, inliers2, ransac_options.max_error, &qvec,
+             &tvec);
+  R = colmap::QuaternionToRotationMatrix(qvec);
+
+  // Re-scoring. UNCALIBRATED pairs are judged by the same pose-consistent
+  // epipolar test as CALIBRATED ones: after view-graph calibration their
+  // focals are known, and the inliers must agree with the pose that rotation
+  // averaging and positioning will use, not with the database F. Their
+  // threshold is the looser F one because the calibrated focals are only
+  // estimates. Planar and panoramic pairs keep the database homography test:
+  // for (near) pure rotation the translation, and hence E, is meaningless.
+  const bool use_homography =
+      (pair.config == TwoViewGeometry::PLANAR ||
+       pair.config == TwoViewGeometry::PANORAMIC ||
+       pair.config == TwoViewGeometry::PLANAR_OR_PANORAMIC) &&
+      pair.H.allFinite() && pair.H.norm() > 0;
+  const double epipolar_threshold_px =
+      pair.config == TwoViewGeometry::CALIBRATED
+          ? options.max_epipolar_error_E_px
+          : options.max_epipolar_error_F_px;
+  const double epipolar_threshold = epipolar_threshold_px * px_to_normalized;
+  const double max_squared_sampson = epipolar_threshold * epipolar_threshold;
+  const double max_squared_transfer =
+      options.max_epipolar_error_H_px * options.max_epipolar_error_H_px;
+  const double max_epipole_cos =
+      std::cos(options.min_epipole_angle_deg * M_PI / 180.0);
+
+  const Eigen::Matrix3d E = CrossProductMatrix(tvec) * R;
+  // Epipoles as unit rays: camera 2's centre seen from camera 1, and camera
+  // 1's centre seen from camera 2.
+  const Eigen::Vector3d center2_in_cam1 = -R.transpose() * tvec;
+  const Eigen::Vector3d center1_in_cam2 = tvec;
+
+  for (size_t k = 0; k < match_idxs.size(); ++k) {
+    const Eigen::Vector3d ray1 = points1[k].homogeneous();
+    const Eigen::Vector3d ray2 = points2[k].homogeneous();
+    if (use_homography) {
+      const colmap::FeatureMatch& match = pair.matches[match_idxs[k]];
+      const Eigen::Vector3d x1 =
+          task.image1->Point2D(match.point2D_idx1).XY().homogeneous();
+      const Eigen::Vector2d& x2 = task.image2->Point2D(match.point2D_idx2).XY();
+      const Eigen::Vector3d Hx1 = pair.H * x1;
+      if (!(std::abs(Hx1(2)) > 0) ||
+          !((Hx1.hnormalized() - x2).squaredNorm() <= max_squared_transfer)) {
+        continue;
+      }
+      pair.inlier_idxs.push_back(match_idxs[k]);
+      continue;
+    }
+    if (std::abs(ray1.normalized().dot(center2_in_cam1)) > max_epipole_cos ||
+        std::abs(ray2.normalized().dot(center1_in_cam2)) > max_epipole_cos) {
+      continue;
+    }
+    if (!(SquaredSampsonError(E, ray1, ray2) <= max_squared_sampson)) {
+      continue;
+    }
+    // Cheirality: the two rays (in camera 1's frame) must meet in front of
+    // both cameras. Below the measurement accuracy in parallax the depth
+    // sign is noise (points near infinity), so such matches are kept.
+    const Eigen::Vector3d ray2_in_cam1 = R.transpose() * ray2;
+    const double a = ray1.squaredNorm();
+    const double b = ray1.dot(ray2_in_cam1);
+    const double c = ray2_in_cam1.squaredNorm();
+    const double sin_sq_parallax = 1.0 - b * b / (a * c);
+    if (sin_sq_parallax > epipolar_threshold * epipolar_threshold) {
+      const double e = ray1.dot(center2_in_cam1);
+      const double g = ray2_in_cam1.dot(center2_in_cam1);
+      const double det = b * b - a * c;  // < 0 for non-parallel rays.
+      const double depth1 = (b * g - c * e) / det;
+      const double depth2 = (a * g - b * e) / det;
+      if (!(depth1 > 0) || !(depth2 > 0)) {
+        continue;
+      }
+    }
+    pair.inlier_idxs.push_back(match_idxs[k]);
+  }
+
+  pair.qvec2_from_1 = qvec;
+  pair.tvec2_from_1 = tvec;
+  pair.has_relative_pose = true;
+
+  const int num_inliers = static_cast<int>(pair.inlier_idxs.size());
+  return num_inliers >= options.min_num_inliers &&
+         num_inliers >= options.min_inlier_ratio * num_raw_matches;
+}
+
+}  // namespace
+
+bool RelativePoseOptions::Check() const {
+  return max_epipolar_error_px > 0 && max_num_trials >= 1 &&
+         min_num_trials >= 0 && min_num_trials <= max_num_trials &&
+         confidence > 0 && confidence <= 1 &&
+         max_num_refinement_iterations >= 0 && max_epipolar_error_E_px > 0 &&
+         max_epipolar_error_F_px > 0 && max_epipolar_error_H_px > 0 &&
+         min_epipole_angle_deg >= 0 && min_epipole_angle_deg < 90 &&
+         min_num_inliers >= 0 && min_inlier_ratio >= 0 && min_inlier_ratio <= 1;
+}
+
+Status EstimateRelativePoses(const RelativePoseOptions& options,
+                             const colmap::Reconstruction& reconstruction,
+                             ViewGraph* view_graph,
+                             size_t* num_invalidated_pairs) {
+  if (num_invalidated_pairs != nullptr) {
+    *num_invalidated_pairs = 0;
+  }
+  if (!options.Check()) {
+    return Status::Error("Invalid relative pose options.");
+  }
+
+  size_t num_invalidated = 0;
+  std::vector<PairTask> tasks;
+  // Normalised coordinates of every keypoint, once per image (undistortion
+  // can be iterative, and an image takes part in many pairs).
+  std::unordered_map<colmap::image_t, std::vector<Eigen::Vector2d>>
+      normalized_points;
+  std::vector<colmap::image_t> image_ids;
+  for (auto& [pair_id, pair] : view_graph->Pairs()) {
+    if (!pair.is_valid) {
+      continue;
+    }
+    if (!reconstruction.ExistsImage(pair.image_id1) ||
+        !reconstruction.ExistsImage(pair.image_id2)) {
+      pair.is_valid = false;
+      ++num_invalidated;
+      continue;
+    }
+    const colmap::Image& image1 = reconstruction.Image(pair.image_id1);
+    const colmap::Image& image2 = reconstruction.Image(pair.image_id2);
+    if (!reconstruction.ExistsCamera(image1.CameraId()) ||
+        !reconstruction.ExistsCamera(image2.CameraId())) {
+      pair.is_valid = false;
+      ++num_invalidated;
+      continue;
+    }
+    PairTask task;
+    task.pair_id = pair_id;
+    task.pair = &pair;
+    task.image1 = &image1;
+    task.image2 = &image2;
+    task.camera1 = &reconstruction.Camera(image1.CameraId());
+    task.camera2 = &reconstruction.Camera(image2.CameraId());
+    for (const colmap::image_t image_id : {pair.image_id1, pair.image_id2}) {
+      if (normalized_points.emplace(image_id, std::vector<Eigen::Vector2d>())
+              .second) {
+        image_ids.push_back(image_id);
+      }
+    }
+    tasks.push_back(task);
+  }
+  for (PairTask& task : tasks) {
+    task.normalized1 = &normalized_points.at(task.pair->image_id1);
+    task.normalized2 = &normalized_points.at(task.pair->image_id2);
+  }
+
+  const int num_threads = colmap::GetEffectiveNumThreads(options.num_threads);
+  // Runs fn(i) for i in [0, n) in contiguous chunks on the pool.
+  auto parallel_for = [num_threads](size_t n, const auto& fn) {
+    if (num_threads <= 1 || n < 2) {
+      for (size_t i = 0; i < n; ++i) fn(i);
+      return;
+    }
+    colmap::ThreadPool pool(num_threads);
+    const size_t num_chunks = std::min<size_t>(n, 8 * num_threads);
+    for (size_t chunk = 0; chunk < num_chunks; ++chunk) {
+      pool.AddTask([&fn, n, num_chunks, chunk]() {
+        const size_t begin = n * chunk / num_chunks;
+        const size_t end = n * (chunk + 1) / num_chunks;
+        for (size_t i = begin; i < end; ++i) fn(i);
+      });
+    }
+    pool.Wait();
+  };
+
+  parallel_for(image_ids.size(), [&](size_t i) {
+    const colmap::Image& image = reconstruction.Image(image_ids[i]);
+    const colmap::Camera& camera = reconstruction.Camera(image.CameraId());
+    std::vector<Eigen::Vector2d>& points = normalized_points.at(image_ids[i]);
+    points.reserve(image.NumPoints2D());
+    for (const colmap::Point2D& point2D : image.Points2D()) {
+      points.push_back(camera.ImageToWorld(point2D.XY()));
+    }
+  });
+
+  std::vector<char> keep(tasks.size(), 0);
+  parallel_for(tasks.size(),
+               [&](size_t i) { keep[i] = ProcessPair(options, tasks[i]); });
+
+  for (size_t i = 0; i < tasks.size(); ++i) {
+    if (!keep[i]) {
+      tasks[i].pair->is_valid = false;
+      ++num_invalidated;
+    }
+  }
+  if (num_invalidated_pairs != nullptr) {
+    *num_invalidated_pairs = num_invalidated;
+  }
+  return Status::Ok();
+}
+
+}  // namespace glomap

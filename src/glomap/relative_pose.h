@@ -1,0 +1,73 @@
+// Relative poses of the view graph's pairs (paper Sec. 3, "Proposed
+// Pipeline": "With the updated camera intrinsics, relative camera poses are
+// estimated"). For every valid pair, an essential matrix is estimated from
+// the verified matches in normalised image coordinates (current camera
+// parameters, i.e. after view-graph calibration) with COLMAP 3.8's
+// LO-RANSAC + five-point solver, decomposed with cheirality, and refined on
+// its inliers. The matches are then re-scored against the pose (or the
+// pair's homography for planar/panoramic pairs) and pairs with too few
+// inliers are invalidated.
+#pragma once
+
+#include <cstddef>
+
+#include "base/reconstruction.h"
+#include "glomap/status.h"
+#include "glomap/view_graph.h"
+
+namespace glomap {
+
+struct RelativePoseOptions {
+  // RANSAC inlier threshold on the Sampson error, pixels; converted to
+  // normalised units by 0.5 * (1/f1 + 1/f2).
+  double max_epipolar_error_px = 1.0;
+  // RANSAC trials at most. The database matches are already verified, so
+  // the dynamic stopping criterion usually ends RANSAC after a few dozen.
+  int max_num_trials = 10000;
+  // RANSAC trials at least (guards against stopping on a lucky sample).
+  int min_num_trials = 30;
+  // RANSAC confidence that an all-inlier sample was drawn.
+  double confidence = 0.9999;
+  // Gauss-Newton/LM iterations of the pose refinement on RANSAC inliers.
+  int max_num_refinement_iterations = 20;
+
+  // Re-scoring threshold on the Sampson error for CALIBRATED pairs, pixels.
+  double max_epipolar_error_E_px = 1.0;
+  // Re-scoring threshold for UNCALIBRATED pairs, pixels (looser: the focal
+  // lengths behind the pose are estimated, see relative_pose.cc).
+  double max_epipolar_error_F_px = 4.0;
+  // Homography transfer threshold for PLANAR / PANORAMIC /
+  // PLANAR_OR_PANORAMIC pairs, pixels.
+  double max_epipolar_error_H_px = 4.0;
+  // Rays within this cone around the epipole (either image) are not inliers:
+  // there every epipolar line passes close by, so the epipolar constraint
+  // does not verify the match.
+  double min_epipole_angle_deg = 3.0;
+
+  // Pairs with fewer inliers are invalidated.
+  int min_num_inliers = 30;
+  // Pairs with inliers / raw matches below this are invalidated
+  // (ImagePair::num_raw_matches, or matches.size() when that is 0).
+  double min_inlier_ratio = 0.25;
+
+  // Worker threads over pairs; -1 uses all cores.
+  int num_threads = -1;
+  // Seed of every pair's RANSAC (combined with the pair id), so results do
+  // not depend on thread scheduling.
+  int random_seed = 0;
+
+  bool Check() const;
+};
+
+// Estimates cam2_from_cam1 (unit translation) of every valid pair, writes
+// qvec2_from_1 / tvec2_from_1 / has_relative_pose and inlier_idxs, and
+// invalidates pairs whose estimation fails or whose re-scored inliers are too
+// few (count or ratio); their number goes to `num_invalidated_pairs` when not
+// null. Pairs whose images or cameras are missing from `reconstruction` are
+// invalidated too.
+Status EstimateRelativePoses(const RelativePoseOptions& options,
+                             const colmap::Reconstruction& reconstruction,
+                             ViewGraph* view_graph,
+                             size_t* num_invalidated_pairs = nullptr);
+
+}  // namespace glomap

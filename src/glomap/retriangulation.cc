@@ -1,0 +1,263 @@
+#include "glomap/retriangulation.h"
+
+#include <algorithm>
+#include <chrono>
+#include <iostream>
+#include <unordered_set>
+#include <vector>
+
+#include "base/correspondence_graph.h"
+#include "base/database_cache.h"
+#include "glomap/track_filters.h"
+#include "optim/bundle_adjustment.h"
+#include "sfm/incremental_triangulator.h"
+#include "util/threading.h"
+
+namespace glomap {
+namespace {
+
+class InterruptCallback : public ceres::IterationCallback {
+ public:
+  explicit InterruptCallback(const Interrupt& interrupt)
+      : interrupt_(interrupt) {}
+
+  ceres::CallbackReturnType operator()(
+      const ceres::IterationSummary& /*summary*/) override {
+    return interrupt_.IsStopped() ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+                                  : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const Interrupt& interrupt_;
+};
+
+colmap::IncrementalTriangulator::Options TriangulatorOptions(
+    const RetriangulationOptions& options) {
+  colmap::IncrementalTriangulator::Options tri_options;
+  tri_options.complete_max_reproj_error = options.complete_max_reproj_error_px;
+  tri_options.merge_max_reproj_error = options.merge_max_reproj_error_px;
+  tri_options.create_max_angle_error = options.create_max_angle_error_deg;
+  tri_options.continue_max_angle_error = options.continue_max_angle_error_deg;
+  tri_options.min_angle = options.min_angle_deg;
+  return tri_options;
+}
+
+// The matches of one pair without out-of-range indices and without a second
+// match of an already matched keypoint (COLMAP's graph would drop those too,
+// printing one warning per match).
+colmap::FeatureMatches CleanMatches(const colmap::FeatureMatches& matches,
+                                    size_t num_points1, size_t num_points2) {
+  colmap::FeatureMatches clean;
+  clean.reserve(matches.size());
+  std::unordered_set<colmap::point2D_t> used1, used2;
+  for (const colmap::FeatureMatch& match : matches) {
+    if (match.point2D_idx1 >= num_points1 ||
+        match.point2D_idx2 >= num_points2) {
+      continue;
+    }
+    if (!used1.insert(match.point2D_idx1).second) continue;
+    if (!used2.insert(match.point2D_idx2).second) continue;
+    clean.push_back(match);
+  }
+  return clean;
+}
+
+// Same as COLMAP's CompleteAndMergeTracks in exe/sfm.cc; returns the number
+// of observations that changed.
+size_t CompleteAndMergeTracks(
+    const colmap::IncrementalTriangulator::Options& tri_options,
+    colmap::IncrementalTriangulator* triangulator) {
+  const size_t num_completed = triangulator->CompleteAllTracks(tri_options);
+  const size_t num_merged = triangulator->MergeAllTracks(tri_options);
+  return num_completed + num_merged;
+}
+
+}  // namespace
+
+bool RetriangulationOptions::Check() const {
+  return min_num_matches >= 1 && complete_max_reproj_error_px > 0 &&
+         merge_max_reproj_error_px > 0 && create_max_angle_error_deg > 0 &&
+         continue_max_angle_error_deg > 0 && min_angle_deg >= 0 &&
+         max_refinements >= 0 && max_refinement_change >= 0 &&
+         max_num_structure_iterations >= 1 && filter_max_reproj_error_px > 0 &&
+         filter_min_tri_angle_deg >= 0 && bundle_adjustment.Check();
+}
+
+Status Retriangulate(const RetriangulationOptions& options,
+                     const ViewGraph& view_graph,
+                     colmap::Reconstruction* reconstruction,
+                     const Interrupt& interrupt) {
+  if (!options.Check()) {
+    return Status::Error("Invalid retriangulation options.");
+  }
+  if (reconstruction == nullptr) {
+    return Status::Error("No reconstruction to retriangulate.");
+  }
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<colmap::image_t> registered_ids = reconstruction->RegImageIds();
+  std::sort(registered_ids.begin(), registered_ids.end());
+  if (registered_ids.size() < 2) {
+    return Status::Error(
+        "Retriangulation needs at least two registered images.");
+  }
+  const std::unordered_set<colmap::image_t> registered(registered_ids.begin(),
+                                                       registered_ids.end());
+
+  // The triangulator needs a CorrespondenceGraph, and COLMAP only accepts one
+  // together with per-pair statistics that Reconstruction::Load(DatabaseCache)
+  // fills (SetObservationAsTriangulated CHECKs against them). We therefore fill
+  // a DatabaseCache in memory instead of loading it from the database (which
+  // would open it read-write and use other pairs). DatabaseCache only exposes
+  // its graph as const; the cache is our own non-const object, so writing to
+  // the graph through const_cast is well defined.
+  colmap::DatabaseCache cache;
+  for (const colmap::image_t image_id : registered_ids) {
+    const colmap::Image& source = reconstruction->Image(image_id);
+    colmap::Image image;
+    image.SetImageId(image_id);
+    image.SetName(source.Name());
+    image.SetCameraId(source.CameraId());
+    image.SetQvec(source.Qvec());
+    image.SetTvec(source.Tvec());
+    std::vector<Eigen::Vector2d> points2D;
+    points2D.reserve(source.NumPoints2D());
+    for (const colmap::Point2D& point2D : source.Points2D()) {
+      points2D.push_back(point2D.XY());
+    }
+    image.SetPoints2D(points2D);
+    if (!cache.ExistsCamera(source.CameraId())) {
+      cache.AddCamera(reconstruction->Camera(source.CameraId()));
+    }
+    cache.AddImage(std::move(image));  // Also adds it to the graph.
+  }
+  auto& graph =
+      const_cast<colmap::CorrespondenceGraph&>(cache.CorrespondenceGraph());
+  size_t num_pairs = 0;
+  for (const auto& [pair_id, pair] : view_graph.Pairs()) {
+    if (pair.matches.size() < static_cast<size_t>(options.min_num_matches) ||
+        registered.count(pair.image_id1) == 0 ||
+        registered.count(pair.image_id2) == 0) {
+      continue;
+    }
+    const colmap::FeatureMatches matches =
+        CleanMatches(pair.matches, cache.Image(pair.image_id1).NumPoints2D(),
+                     cache.Image(pair.image_id2).NumPoints2D());
+    graph.AddCorrespondences(pair.image_id1, pair.image_id2, matches);
+    ++num_pairs;
+  }
+  graph.Finalize();  // Drops images without correspondences from the graph.
+  for (const colmap::image_t image_id : registered_ids) {
+    colmap::Image& image = cache.Image(image_id);
+    if (graph.ExistsImage(image_id)) {
+      image.SetNumObservations(graph.NumObservationsForImage(image_id));
+      image.SetNumCorrespondences(graph.NumCorrespondencesForImage(image_id));
+    }
+  }
+  if (graph.NumImages() < 2) {
+    return Status::Error(
+        "Retriangulation: no image pair with enough matches between "
+        "registered images.");
+  }
+
+  // Declared after `cache`, so it is destroyed first (it points to the graph).
+  colmap::Reconstruction work;
+  work.Load(cache);
+  std::vector<colmap::image_t> triangulated_ids;
+  for (const colmap::image_t image_id : registered_ids) {
+    if (graph.ExistsImage(image_id)) {
+      work.RegisterImage(image_id);
+      triangulated_ids.push_back(image_id);
+    }
+  }
+  work.SetUp(&graph);
+
+  const colmap::IncrementalTriangulator::Options tri_options =
+      TriangulatorOptions(options);
+  if (!tri_options.Check()) {
+    return Status::Error("Invalid triangulation options.");
+  }
+  colmap::IncrementalTriangulator triangulator(&graph, &work);
+  for (const colmap::image_t image_id : triangulated_ids) {
+    if (interrupt.IsStopped()) return Status::Cancelled();
+    triangulator.TriangulateImage(tri_options, image_id);
+  }
+  CompleteAndMergeTracks(tri_options, &triangulator);
+  const size_t num_triangulated = work.NumPoints3D();
+
+  // Structure-only refinement, as COLMAP's point_triangulator: poses and
+  // intrinsics stay fixed, so the points can be refined without a gauge and
+  // independently of each other.
+  InterruptCallback callback(interrupt);
+  colmap::BundleAdjustmentOptions ba_options;
+  ba_options.refine_focal_length = false;
+  ba_options.refine_principal_point = false;
+  ba_options.refine_extra_params = false;
+  ba_options.refine_extrinsics = false;
+  ba_options.print_summary = false;
+  ba_options.solver_options.max_num_iterations =
+      options.max_num_structure_iterations;
+  ba_options.solver_options.gradient_tolerance = 1.0;  // COLMAP's global BA.
+  ba_options.solver_options.num_threads =
+      colmap::GetEffectiveNumThreads(options.bundle_adjustment.num_threads);
+  ba_options.solver_options.callbacks.push_back(&callback);
+  colmap::BundleAdjustmentConfig ba_config;
+  for (const colmap::image_t image_id : triangulated_ids) {
+    ba_config.AddImage(image_id);
+  }
+  for (int i = 0; i < options.max_refinements; ++i) {
+    if (interrupt.IsStopped()) return Status::Cancelled();
+    work.FilterObservationsWithNegativeDepth();
+    const size_t num_observations = work.ComputeNumObservations();
+    if (num_observations == 0) break;
+    colmap::BundleAdjuster bundle_adjuster(ba_options, ba_config);
+    if (!bundle_adjuster.Solve(&work)) break;
+    if (interrupt.IsStopped()) return Status::Cancelled();
+    size_t num_changed = CompleteAndMergeTracks(tri_options, &triangulator);
+    num_changed += work.FilterAllPoints3D(options.filter_max_reproj_error_px,
+                                          options.filter_min_tri_angle_deg);
+    if (static_cast<double>(num_changed) / num_observations <
+        options.max_refinement_change) {
+      break;
+    }
+  }
+
+  // Replace the points of `reconstruction` by the new ones. Images share ids
+  // and Points2D with `work`, so the tracks carry over unchanged.
+  std::vector<colmap::point3D_t> old_ids;
+  old_ids.reserve(reconstruction->NumPoints3D());
+  for (const auto& point3D : reconstruction->Points3D()) {
+    old_ids.push_back(point3D.first);
+  }
+  std::sort(old_ids.begin(), old_ids.end());
+  for (const colmap::point3D_t point3D_id : old_ids) {
+    reconstruction->DeletePoint3D(point3D_id);
+  }
+  std::vector<colmap::point3D_t> new_ids;
+  new_ids.reserve(work.NumPoints3D());
+  for (const auto& point3D : work.Points3D()) {
+    new_ids.push_back(point3D.first);
+  }
+  std::sort(new_ids.begin(), new_ids.end());
+  for (const colmap::point3D_t point3D_id : new_ids) {
+    const colmap::Point3D& point3D = work.Point3D(point3D_id);
+    reconstruction->AddPoint3D(point3D.XYZ(), point3D.Track(), point3D.Color());
+  }
+  std::cout << "Retriangulation: " << num_pairs << " pairs, "
+            << num_triangulated << " points triangulated, "
+            << reconstruction->NumPoints3D() << " after refinement ("
+            << old_ids.size() << " before), "
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                             start)
+                   .count()
+            << " s" << std::endl;
+
+  if (options.run_bundle_adjustment) {
+    const Status status = RunGlobalBundleAdjustment(options.bundle_adjustment,
+                                                    reconstruction, interrupt);
+    if (!status.ok()) return status;
+  }
+  UpdatePointErrors(reconstruction);
+  return Status::Ok();
+}
+
+}  // namespace glomap

@@ -1,0 +1,74 @@
+// Structure refinement by retriangulation (paper Sec. 3, "Global Bundle
+// Adjustment" / "Proposed Pipeline": "points are retriangulated with the
+// estimated camera pose, and rounds of global bundle adjustment are
+// performed"; glomap.md §2.8). Global positioning only builds points from the
+// tracks it was given; with the final poses, COLMAP's incremental
+// triangulator recovers many more points from all verified matches.
+#pragma once
+
+#include "base/reconstruction.h"
+#include "glomap/bundle_adjustment.h"
+#include "glomap/status.h"
+#include "glomap/view_graph.h"
+
+namespace glomap {
+
+struct RetriangulationOptions {
+  // Pairs of the view graph with fewer verified matches are not used (like
+  // COLMAP's DatabaseCache min_num_matches). Pairs are used whether or not an
+  // earlier stage invalidated them: with known poses the triangulator's own
+  // checks reject wrong matches.
+  int min_num_matches = 15;
+
+  // Triangulator thresholds (colmap::IncrementalTriangulator::Options). The
+  // completion and merge limits are looser than COLMAP's 4 px because the
+  // poses come from a global solve rather than incremental BA (reference
+  // values, glomap.md §2.8).
+  double complete_max_reproj_error_px = 15.0;
+  double merge_max_reproj_error_px = 15.0;
+  double create_max_angle_error_deg = 2.0;
+  double continue_max_angle_error_deg = 2.0;
+  double min_angle_deg = 1.0;
+
+  // Refinement loop (COLMAP's point_triangulator): structure-only BA, track
+  // completion and merging, then filtering; at most this many times, and
+  // only while more than `max_refinement_change` of the observations change.
+  int max_refinements = 5;
+  double max_refinement_change = 0.0005;
+  // Iterations of each structure-only BA.
+  int max_num_structure_iterations = 50;
+
+  // Filter of the refinement loop (COLMAP mapper defaults).
+  double filter_max_reproj_error_px = 4.0;
+  double filter_min_tri_angle_deg = 1.5;
+
+  // Whether to finish with a full bundle adjustment (poses, intrinsics and
+  // points) using `bundle_adjustment`. Defaults to one joint round: poses
+  // are already good, so the rotation-fixed solve is skipped.
+  bool run_bundle_adjustment = true;
+  GlobalBundleAdjustmentOptions bundle_adjustment = [] {
+    GlobalBundleAdjustmentOptions ba_options;
+    ba_options.num_rounds = 1;
+    ba_options.skip_fixed_rotation_stage = true;
+    return ba_options;
+  }();
+
+  bool Check() const;
+};
+
+// Deletes all 3D points of `reconstruction` and triangulates new ones from
+// the verified matches (`ImagePair::matches`) of every view-graph pair with
+// at least `min_num_matches` matches between two registered images, with the
+// poses and intrinsics held fixed; then refines as in COLMAP's
+// point_triangulator, optionally runs a full BA, and updates point errors.
+//
+// Images keep their ids, poses and Points2D; unregistered images stay in the
+// reconstruction untouched (the triangulation runs on a private copy of the
+// registered images, so COLMAP's Reconstruction::TearDown, which erases
+// unregistered images, never touches `reconstruction`). Point ids are new.
+Status Retriangulate(const RetriangulationOptions& options,
+                     const ViewGraph& view_graph,
+                     colmap::Reconstruction* reconstruction,
+                     const Interrupt& interrupt = {});
+
+}  // namespace glomap

@@ -1,0 +1,62 @@
+// Robust global rotation averaging (paper Sec. 3, "Rotation Averaging"):
+// camera orientations from the relative rotations of the view graph, after
+// Chatterjee & Govindu: a maximum-spanning-tree start, an L1 solve that is
+// insensitive to gross outliers, then IRLS with Geman-McClure weights for
+// accuracy. Pairs that disagree with the solution are rejected and the
+// problem is solved again on the largest consistent component.
+#pragma once
+
+#include <cstddef>
+
+#include "base/reconstruction.h"
+#include "glomap/status.h"
+#include "glomap/view_graph.h"
+
+namespace glomap {
+
+struct RotationAveragingOptions {
+  // Outer L1 iterations (each relinearizes around the current rotations).
+  int max_num_l1_iterations = 5;
+  // The L1 stage stops when the mean per-image update is below this (rad).
+  double l1_step_convergence_threshold_rad = 1e-3;
+  // Maximum number of iteratively reweighted least-squares iterations.
+  int max_num_irls_iterations = 100;
+  // IRLS stops when the mean per-image update is below this (rad).
+  double irls_step_convergence_threshold_rad = 1e-3;
+  // Scale of the Geman-McClure loss used to weight pairs in IRLS (deg).
+  double irls_loss_parameter_sigma_deg = 5.0;
+  // Pairs whose relative rotation disagrees with the averaged rotations by
+  // more than this are invalidated, and the problem is solved again (deg).
+  double max_rotation_error_deg = 10.0;
+  // Number of solve-then-reject rounds; the reference runs two, the second
+  // from a fresh spanning tree of the pairs that survived the first.
+  int num_rounds = 2;
+
+  bool Check() const;
+};
+
+// Estimates a world-to-camera rotation for every image of the largest
+// connected component of the valid pairs that have a relative pose
+// (qvec2_from_1: x2 = R21 x1 + t).
+//
+// Pairs whose relative rotation disagrees with the result by more than
+// max_rotation_error_deg are invalidated, as are all pairs with an image
+// outside the final component. Images of the final component get their Qvec
+// (normalized, (w, x, y, z)), Tvec = 0 and are registered; all other images
+// are deregistered. The gauge is fixed by giving the smallest image id of the
+// component the identity rotation, so results are deterministic.
+//
+// Returns an error if a pair names an image that is not in the
+// reconstruction, or if fewer than two images remain. num_rejected_pairs
+// (optional) receives the number of pairs this call invalidated.
+Status AverageRotations(const RotationAveragingOptions& options,
+                        ViewGraph* view_graph,
+                        colmap::Reconstruction* reconstruction,
+                        size_t* num_rejected_pairs = nullptr);
+
+// Angle between the pair's measured relative rotation and the one implied by
+// the two images' current Qvecs, R2 * R1^T (deg).
+double RelativeRotationErrorDeg(const ImagePair& pair,
+                                const colmap::Reconstruction& reconstruction);
+
+}  // namespace glomap

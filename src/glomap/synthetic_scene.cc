@@ -1,0 +1,898 @@
+#include "glomap/synthetic_scene.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <limits>
+#include <numeric>
+#include <random>
+#include <sstream>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "base/camera_models.h"
+#include "base/database.h"
+#include "base/pose.h"
+#include "estimators/two_view_geometry.h"
+#include "util/random.h"
+#include "util/threading.h"
+
+namespace glomap {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegToRad = kPi / 180.0;
+
+// Each image sees about this many points when num_points3D is automatic.
+constexpr double kTargetVisiblePointsPerImage = 600;
+
+// COLMAP's matcher defaults (SiftMatchingOptions) for verification.
+constexpr int kMinNumInliers = 15;
+constexpr double kMaxEpipolarErrorPx = 4.0;
+
+// Independent random streams, so that e.g. changing wrong_match_ratio does
+// not move a single keypoint.
+enum RandomStream : uint32_t {
+  kCameraStream = 1,
+  kPoseStream,
+  kPilotStream,
+  kPointStream,
+  kKeypointStream,
+  kPairStream,
+  kRansacStream,
+};
+
+std::mt19937 MakeRng(int seed, RandomStream stream, uint64_t index = 0) {
+  std::seed_seq seq{static_cast<uint32_t>(seed), static_cast<uint32_t>(stream),
+                    static_cast<uint32_t>(index & 0xffffffffu),
+                    static_cast<uint32_t>(index >> 32)};
+  return std::mt19937(seq);
+}
+
+double Uniform(std::mt19937& rng, double min, double max) {
+  return std::uniform_real_distribution<double>(min, max)(rng);
+}
+
+std::vector<std::string> SplitModelNames(const std::string& models) {
+  std::vector<std::string> names;
+  std::stringstream stream(models);
+  std::string name;
+  while (std::getline(stream, name, ',')) {
+    name.erase(0, name.find_first_not_of(" \t"));
+    name.erase(name.find_last_not_of(" \t") + 1);
+    names.push_back(name);
+  }
+  return names;
+}
+
+std::string OptionsError(const SyntheticSceneOptions& options) {
+  if (options.num_images < 10 || options.num_images > 10000) {
+    return "num_images must be in [10, 10000]";
+  }
+  if (options.num_cameras < 1 || options.num_cameras > options.num_images) {
+    return "num_cameras must be in [1, num_images]";
+  }
+  const std::vector<std::string> models = SplitModelNames(options.camera_model);
+  if (models.empty()) return "camera_model is empty";
+  for (const std::string& model : models) {
+    if (!colmap::ExistsCameraModelWithName(model)) {
+      return "unknown camera model '" + model + "'";
+    }
+  }
+  if (options.image_width_px < 64 || options.image_height_px < 64) {
+    return "image_width_px and image_height_px must be at least 64";
+  }
+  if (!(options.focal_length_px > 0)) return "focal_length_px must be > 0";
+  if (options.num_points3D < 0) return "num_points3D must be >= 0";
+  if (options.max_keypoints_per_image < 32) {
+    return "max_keypoints_per_image must be at least 32";
+  }
+  if (!(options.unmatched_keypoint_ratio >= 0)) {
+    return "unmatched_keypoint_ratio must be >= 0";
+  }
+  if (!(options.pixel_noise_px >= 0)) return "pixel_noise_px must be >= 0";
+  if (!(options.wrong_match_ratio >= 0 && options.wrong_match_ratio <= 0.9)) {
+    return "wrong_match_ratio must be in [0, 0.9]";
+  }
+  if (options.max_pairs_per_image < 1) {
+    return "max_pairs_per_image must be >= 1";
+  }
+  if (options.layout != "ring" && options.layout != "forward" &&
+      options.layout != "grid") {
+    return "layout must be ring, forward or grid";
+  }
+  if (options.verification != "colmap" &&
+      options.verification != "ground_truth") {
+    return "verification must be colmap or ground_truth";
+  }
+  if (options.num_threads == 0 || options.num_threads < -1) {
+    return "num_threads must be -1 or positive";
+  }
+  return "";
+}
+
+// Splits [0, n) into chunks run on a pool; `func(begin, end)` must write only
+// to its own slots so that the result does not depend on scheduling.
+void ParallelFor(colmap::ThreadPool* pool, size_t n,
+                 const std::function<void(size_t, size_t)>& func) {
+  const size_t num_chunks = std::min<size_t>(n, pool->NumThreads() * 8);
+  if (num_chunks == 0) return;
+  const size_t chunk = (n + num_chunks - 1) / num_chunks;
+  for (size_t begin = 0; begin < n; begin += chunk) {
+    const size_t end = std::min(n, begin + chunk);
+    pool->AddTask([&func, begin, end]() { func(begin, end); });
+  }
+  pool->Wait();
+}
+
+struct Pose {
+  Eigen::Matrix3d cam_from_world_R;
+  Eigen::Vector3d cam_from_world_t;
+  Eigen::Vector3d center;
+};
+
+// COLMAP's camera frame: x right, y down, z along the optical axis.
+Pose LookAlong(const Eigen::Vector3d& center, const Eigen::Vector3d& forward,
+               const Eigen::Vector3d& up, double roll_rad) {
+  const Eigen::Vector3d z = forward.normalized();
+  const Eigen::Vector3d x = z.cross(up).normalized();
+  const Eigen::Vector3d y = z.cross(x);
+  Eigen::Matrix3d R;
+  R.row(0) = x;
+  R.row(1) = y;
+  R.row(2) = z;
+  Pose pose;
+  pose.cam_from_world_R =
+      Eigen::AngleAxisd(roll_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+      R;
+  pose.center = center;
+  pose.cam_from_world_t = -pose.cam_from_world_R * center;
+  return pose;
+}
+
+struct ScenePoint {
+  Eigen::Vector3d xyz;
+  Eigen::Vector3d normal;
+};
+
+// Where the cameras are and what surface the points lie on.
+struct Layout {
+  std::vector<Pose> poses;
+  // Points farther than this from a camera are not seen by it.
+  double max_depth = std::numeric_limits<double>::infinity();
+  // A point is seen only from directions within this angle of its surface
+  // normal (features do not match across larger viewpoint changes).
+  double max_view_angle_deg = 60;
+  std::function<ScenePoint(std::mt19937&)> sample_point;
+};
+
+// Object-centred: a bumpy sphere of radius 2 seen from distance 8, so that
+// neighbouring views have triangulation angles of a few degrees to ~30.
+Layout MakeRingLayout(int num_images, std::mt19937& rng) {
+  constexpr double kObjectRadius = 2.0;
+  constexpr double kDistance = 8.0;
+  Layout layout;
+  layout.max_view_angle_deg = 60;
+  const double golden_angle = kPi * (3.0 - std::sqrt(5.0));
+  const double sin_min = std::sin(-5 * kDegToRad);
+  const double sin_max = std::sin(55 * kDegToRad);
+  for (int i = 0; i < num_images; ++i) {
+    double azimuth, elevation;
+    if (num_images <= 60) {
+      azimuth = 2 * kPi * (i + Uniform(rng, -0.15, 0.15)) / num_images;
+      elevation = (15 + Uniform(rng, -5, 5)) * kDegToRad;
+    } else {
+      // Above 60 images one ring gets too dense: spread the cameras evenly
+      // over a dome (Fibonacci spiral in a band of elevations).
+      const double s = sin_min + (i + 0.5) / num_images * (sin_max - sin_min);
+      elevation = std::asin(s);
+      azimuth = i * golden_angle + Uniform(rng, -0.05, 0.05);
+    }
+    const double distance = kDistance * (1 + Uniform(rng, -0.05, 0.05));
+    const Eigen::Vector3d center =
+        distance * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
+                                   std::cos(elevation) * std::sin(azimuth),
+                                   std::sin(elevation));
+    const Eigen::Vector3d target(Uniform(rng, -0.2, 0.2),
+                                 Uniform(rng, -0.2, 0.2),
+                                 Uniform(rng, -0.2, 0.2));
+    layout.poses.push_back(LookAlong(center, target - center,
+                                     Eigen::Vector3d::UnitZ(),
+                                     Uniform(rng, -3, 3) * kDegToRad));
+  }
+  layout.sample_point = [](std::mt19937& rng) {
+    std::normal_distribution<double> normal(0, 1);
+    Eigen::Vector3d dir(normal(rng), normal(rng), normal(rng));
+    dir.normalize();
+    ScenePoint point;
+    point.xyz = kObjectRadius * (1 + Uniform(rng, -0.05, 0.05)) * dir;
+    point.normal = dir;
+    return point;
+  };
+  return layout;
+}
+
+// Driving: one image per metre along a gently curving street, 1.6 m above
+// the road, between two 10 m high facades 7 m to each side.
+Layout MakeForwardLayout(int num_images, std::mt19937& rng) {
+  constexpr double kStepM = 1.0;
+  constexpr double kAmplitudeM = 4.0;
+  constexpr double kPeriodM = 150.0;
+  constexpr double kHalfWidthM = 7.0;
+  constexpr double kWallHeightM = 10.0;
+  Layout layout;
+  layout.max_depth = 40;
+  layout.max_view_angle_deg = 80;
+  const auto path = [=](double s) {
+    return Eigen::Vector3d(s, kAmplitudeM * std::sin(2 * kPi * s / kPeriodM),
+                           0);
+  };
+  const auto tangent = [=](double s) {
+    return Eigen::Vector3d(1,
+                           kAmplitudeM * 2 * kPi / kPeriodM *
+                               std::cos(2 * kPi * s / kPeriodM),
+                           0)
+        .normalized();
+  };
+  for (int i = 0; i < num_images; ++i) {
+    const double s = i * kStepM;
+    const Eigen::Vector3d center =
+        path(s) + Eigen::Vector3d(Uniform(rng, -0.05, 0.05),
+                                  Uniform(rng, -0.05, 0.05),
+                                  1.6 + Uniform(rng, -0.02, 0.02));
+    Eigen::Vector3d forward = Eigen::AngleAxisd(Uniform(rng, -2, 2) * kDegToRad,
+                                                Eigen::Vector3d::UnitZ()) *
+                              tangent(s);
+    forward.z() += Uniform(rng, -0.02, 0.02);
+    layout.poses.push_back(LookAlong(center, forward, Eigen::Vector3d::UnitZ(),
+                                     Uniform(rng, -1, 1) * kDegToRad));
+  }
+  const double s_min = -10;
+  const double s_max = (num_images - 1) * kStepM + layout.max_depth + 5;
+  layout.sample_point = [=](std::mt19937& rng) {
+    const double s = Uniform(rng, s_min, s_max);
+    const Eigen::Vector3d t = tangent(s);
+    const Eigen::Vector3d lateral(-t.y(), t.x(), 0);
+    ScenePoint point;
+    // Ground and both facades, in proportion to their areas.
+    const double area_ground = 2 * kHalfWidthM;
+    const double pick = Uniform(rng, 0, area_ground + 2 * kWallHeightM);
+    if (pick < area_ground) {
+      point.xyz = path(s) + Uniform(rng, -kHalfWidthM, kHalfWidthM) * lateral +
+                  Eigen::Vector3d(0, 0, Uniform(rng, -0.05, 0.05));
+      point.normal = Eigen::Vector3d::UnitZ();
+    } else {
+      const double side = pick < area_ground + kWallHeightM ? 1.0 : -1.0;
+      point.xyz = path(s) + side * kHalfWidthM * lateral +
+                  Eigen::Vector3d(0, 0, Uniform(rng, 0, kWallHeightM));
+      point.normal = -side * lateral;
+    }
+    return point;
+  };
+  return layout;
+}
+
+// Aerial survey: nadir images 40 m above hilly terrain, 10 m apart along
+// serpentine rows (about 75% overlap), each point seen by ~15 images.
+Layout MakeGridLayout(int num_images, std::mt19937& rng) {
+  constexpr double kSpacingM = 10.0;
+  constexpr double kAltitudeM = 40.0;
+  const int num_cols =
+      static_cast<int>(std::ceil(std::sqrt(static_cast<double>(num_images))));
+  const int num_rows = (num_images + num_cols - 1) / num_cols;
+  Layout layout;
+  layout.max_depth = 70;
+  layout.max_view_angle_deg = 60;
+  for (int i = 0; i < num_images; ++i) {
+    const int row = i / num_cols;
+    const int col = row % 2 == 0 ? i % num_cols : num_cols - 1 - i % num_cols;
+    const Eigen::Vector3d center(col * kSpacingM + Uniform(rng, -0.5, 0.5),
+                                 row * kSpacingM + Uniform(rng, -0.5, 0.5),
+                                 kAltitudeM + Uniform(rng, -1, 1));
+    const Eigen::Vector3d forward(Uniform(rng, -0.05, 0.05),
+                                  Uniform(rng, -0.05, 0.05), -1);
+    layout.poses.push_back(LookAlong(center, forward, Eigen::Vector3d::UnitY(),
+                                     Uniform(rng, -3, 3) * kDegToRad));
+  }
+  const double margin = 30;
+  const double x_max = (num_cols - 1) * kSpacingM + margin;
+  const double y_max = (num_rows - 1) * kSpacingM + margin;
+  layout.sample_point = [=](std::mt19937& rng) {
+    const double x = Uniform(rng, -margin, x_max);
+    const double y = Uniform(rng, -margin, y_max);
+    // Relief of +-4.5 m: far from planar at 40 m, as real terrain is.
+    const double h =
+        3 * std::sin(x / 17) * std::cos(y / 13) + 1.5 * std::sin(x / 7 + y / 9);
+    const double dh_dx = 3 / 17.0 * std::cos(x / 17) * std::cos(y / 13) +
+                         1.5 / 7 * std::cos(x / 7 + y / 9);
+    const double dh_dy = -3 / 13.0 * std::sin(x / 17) * std::sin(y / 13) +
+                         1.5 / 9 * std::cos(x / 7 + y / 9);
+    ScenePoint point;
+    point.xyz = Eigen::Vector3d(x, y, h);
+    point.normal = Eigen::Vector3d(-dh_dx, -dh_dy, 1).normalized();
+    return point;
+  };
+  return layout;
+}
+
+// True cameras: the focal length varies by +-10% between cameras; the
+// distortion is small, as for ordinary lenses.
+std::vector<colmap::Camera> MakeTrueCameras(
+    const SyntheticSceneOptions& options) {
+  const std::vector<std::string> models = SplitModelNames(options.camera_model);
+  std::mt19937 rng = MakeRng(options.random_seed, kCameraStream);
+  std::vector<colmap::Camera> cameras;
+  for (int c = 0; c < options.num_cameras; ++c) {
+    const double focal =
+        options.num_cameras > 1
+            ? options.focal_length_px * (1 + Uniform(rng, -0.1, 0.1))
+            : options.focal_length_px;
+    colmap::Camera camera;
+    camera.SetCameraId(static_cast<colmap::camera_t>(c + 1));
+    camera.InitializeWithName(models[c % models.size()], focal,
+                              options.image_width_px, options.image_height_px);
+    const std::vector<size_t>& extra_idxs = camera.ExtraParamsIdxs();
+    const bool is_fov = camera.ModelName() == "FOV";
+    for (size_t k = 0; k < extra_idxs.size(); ++k) {
+      double value;
+      if (is_fov) {
+        value = Uniform(rng, 0.005, 0.02);  // omega: field-of-view distortion
+      } else if (k == 0) {
+        value = Uniform(rng, -0.02, 0.01);  // k1
+      } else if (k == 1) {
+        value = Uniform(rng, -0.005, 0.005);  // k2
+      } else {
+        value = Uniform(rng, -0.0005, 0.0005);  // tangential, higher orders
+      }
+      camera.Params(extra_idxs[k]) = value;
+    }
+    camera.SetPriorFocalLength(true);
+    cameras.push_back(std::move(camera));
+  }
+  return cameras;
+}
+
+// What the feature extractor would have stored for each camera.
+std::vector<colmap::Camera> MakeDatabaseCameras(
+    const SyntheticSceneOptions& options,
+    const std::vector<colmap::Camera>& true_cameras) {
+  std::vector<colmap::Camera> cameras;
+  for (const colmap::Camera& true_camera : true_cameras) {
+    colmap::Camera camera = true_camera;
+    if (!options.prior_focal_length) {
+      camera.InitializeWithId(
+          true_camera.ModelId(),
+          1.2 * std::max(options.image_width_px, options.image_height_px),
+          true_camera.Width(), true_camera.Height());
+      camera.SetPriorFocalLength(false);
+    }
+    cameras.push_back(std::move(camera));
+  }
+  return cameras;
+}
+
+// Projects `xyz` into an image; false if the point is not seen there.
+bool ProjectVisible(const Layout& layout, const Pose& pose,
+                    const colmap::Camera& camera, const ScenePoint& point,
+                    double min_cos_view, Eigen::Vector2d* pixel) {
+  const Eigen::Vector3d xyz_in_cam =
+      pose.cam_from_world_R * point.xyz + pose.cam_from_world_t;
+  if (xyz_in_cam.z() < 0.3) return false;
+  const Eigen::Vector3d to_camera = pose.center - point.xyz;
+  const double distance = to_camera.norm();
+  if (distance > layout.max_depth) return false;
+  if (point.normal.dot(to_camera) < min_cos_view * distance) return false;
+  const Eigen::Vector2d normalized = xyz_in_cam.hnormalized();
+  // Reject far outside the field of view before distorting, where
+  // polynomial distortion can fold points back into the image.
+  const double focal = camera.MeanFocalLength();
+  if (std::abs(normalized.x()) > 0.7 * camera.Width() / focal ||
+      std::abs(normalized.y()) > 0.7 * camera.Height() / focal) {
+    return false;
+  }
+  *pixel = camera.WorldToImage(normalized);
+  constexpr double kMarginPx = 2;
+  return pixel->x() >= kMarginPx && pixel->y() >= kMarginPx &&
+         pixel->x() <= camera.Width() - kMarginPx &&
+         pixel->y() <= camera.Height() - kMarginPx;
+}
+
+struct Observation {
+  uint32_t point_idx;
+  Eigen::Vector2d pixel;
+};
+
+// For every image, the points it sees (sorted by point index), using a hash
+// grid over the camera centres so that each point only tests nearby cameras.
+std::vector<std::vector<Observation>> ComputeVisibility(
+    const Layout& layout, const std::vector<colmap::Camera>& cameras,
+    const std::vector<int>& camera_of_image,
+    const std::vector<ScenePoint>& points, colmap::ThreadPool* pool) {
+  const size_t num_images = layout.poses.size();
+  const double min_cos_view = std::cos(layout.max_view_angle_deg * kDegToRad);
+  const bool finite_depth = std::isfinite(layout.max_depth);
+  const auto cell_of = [&](const Eigen::Vector3d& xyz) {
+    if (!finite_depth) return Eigen::Vector3i(0, 0, 0);
+    return Eigen::Vector3i(
+        static_cast<int>(std::floor(xyz.x() / layout.max_depth)),
+        static_cast<int>(std::floor(xyz.y() / layout.max_depth)),
+        static_cast<int>(std::floor(xyz.z() / layout.max_depth)));
+  };
+  const auto key_of = [](const Eigen::Vector3i& cell) {
+    return (static_cast<int64_t>(cell.x() + (1 << 20)) << 42) |
+           (static_cast<int64_t>(cell.y() + (1 << 20)) << 21) |
+           static_cast<int64_t>(cell.z() + (1 << 20));
+  };
+  std::unordered_map<int64_t, std::vector<uint32_t>> images_in_cell;
+  for (size_t i = 0; i < num_images; ++i) {
+    images_in_cell[key_of(cell_of(layout.poses[i].center))].push_back(i);
+  }
+  const int reach = finite_depth ? 1 : 0;
+
+  std::vector<std::vector<std::pair<uint32_t, Eigen::Vector2d>>> seen_by(
+      points.size());
+  ParallelFor(pool, points.size(), [&](size_t begin, size_t end) {
+    std::vector<uint32_t> candidates;
+    for (size_t p = begin; p < end; ++p) {
+      const Eigen::Vector3i cell = cell_of(points[p].xyz);
+      candidates.clear();
+      for (int dx = -reach; dx <= reach; ++dx) {
+        for (int dy = -reach; dy <= reach; ++dy) {
+          for (int dz = -reach; dz <= reach; ++dz) {
+            const auto it =
+                images_in_cell.find(key_of(cell + Eigen::Vector3i(dx, dy, dz)));
+            if (it == images_in_cell.end()) continue;
+            candidates.insert(candidates.end(), it->second.begin(),
+                              it->second.end());
+          }
+        }
+      }
+      std::sort(candidates.begin(), candidates.end());
+      Eigen::Vector2d pixel;
+      for (const uint32_t i : candidates) {
+        if (ProjectVisible(layout, layout.poses[i], cameras[camera_of_image[i]],
+                           points[p], min_cos_view, &pixel)) {
+          seen_by[p].emplace_back(i, pixel);
+        }
+      }
+    }
+  });
+
+  std::vector<std::vector<Observation>> observations(num_images);
+  for (size_t p = 0; p < points.size(); ++p) {
+    for (const auto& [image_idx, pixel] : seen_by[p]) {
+      observations[image_idx].push_back({static_cast<uint32_t>(p), pixel});
+    }
+  }
+  return observations;
+}
+
+// Picks the number of points that gives each image about
+// kTargetVisiblePointsPerImage visible points, from a pilot sample seen by a
+// few evenly spread images.
+size_t AutomaticNumPoints(const SyntheticSceneOptions& options,
+                          const Layout& layout,
+                          const std::vector<colmap::Camera>& cameras,
+                          const std::vector<int>& camera_of_image) {
+  constexpr size_t kNumPilotPoints = 20000;
+  constexpr size_t kNumPilotImages = 40;
+  std::mt19937 rng = MakeRng(options.random_seed, kPilotStream);
+  std::vector<ScenePoint> pilot(kNumPilotPoints);
+  for (ScenePoint& point : pilot) point = layout.sample_point(rng);
+  const size_t num_images = layout.poses.size();
+  const size_t num_sampled = std::min(num_images, kNumPilotImages);
+  const double min_cos_view = std::cos(layout.max_view_angle_deg * kDegToRad);
+  size_t num_visible = 0;
+  Eigen::Vector2d pixel;
+  for (size_t k = 0; k < num_sampled; ++k) {
+    const size_t i = k * num_images / num_sampled;
+    for (const ScenePoint& point : pilot) {
+      num_visible +=
+          ProjectVisible(layout, layout.poses[i], cameras[camera_of_image[i]],
+                         point, min_cos_view, &pixel);
+    }
+  }
+  const double visible_per_image =
+      std::max(1.0, static_cast<double>(num_visible) / num_sampled);
+  return static_cast<size_t>(std::ceil(
+      kNumPilotPoints * kTargetVisiblePointsPerImage / visible_per_image));
+}
+
+struct SyntheticImage {
+  // Stored keypoints (float precision, as in the database).
+  std::vector<Eigen::Vector2d> keypoints;
+  // (point index, keypoint index) of the points the image sees, sorted.
+  std::vector<std::pair<uint32_t, uint32_t>> point_to_keypoint;
+};
+
+SyntheticImage MakeKeypoints(const SyntheticSceneOptions& options,
+                             const colmap::Camera& camera,
+                             std::vector<Observation> observations,
+                             std::mt19937& rng) {
+  const size_t max_keypoints =
+      static_cast<size_t>(options.max_keypoints_per_image);
+  if (observations.size() > max_keypoints) {
+    std::shuffle(observations.begin(), observations.end(), rng);
+    observations.resize(max_keypoints);
+    std::sort(observations.begin(), observations.end(),
+              [](const Observation& a, const Observation& b) {
+                return a.point_idx < b.point_idx;
+              });
+  }
+  const size_t num_unmatched =
+      std::min(max_keypoints - observations.size(),
+               static_cast<size_t>(std::round(options.unmatched_keypoint_ratio *
+                                              observations.size())));
+  const size_t num_keypoints = observations.size() + num_unmatched;
+  // Detectors list keypoints in no particular relation to the scene.
+  std::vector<uint32_t> slots(num_keypoints);
+  std::iota(slots.begin(), slots.end(), 0);
+  std::shuffle(slots.begin(), slots.end(), rng);
+
+  const double width = static_cast<double>(camera.Width());
+  const double height = static_cast<double>(camera.Height());
+  // Rounded to float first (the database stores float32), then clamped to
+  // bounds that are floats too. The other order lets GCC 12 (-O3
+  // -frounding-math) drop the rounding after std::clamp.
+  const auto to_stored = [&](const Eigen::Vector2d& xy) {
+    const double x = static_cast<float>(xy.x());
+    const double y = static_cast<float>(xy.y());
+    return Eigen::Vector2d(std::clamp(x, 0.5, width - 0.5),
+                           std::clamp(y, 0.5, height - 0.5));
+  };
+  std::normal_distribution<double> noise(0, 1);
+  SyntheticImage image;
+  image.keypoints.resize(num_keypoints);
+  image.point_to_keypoint.reserve(observations.size());
+  for (size_t k = 0; k < observations.size(); ++k) {
+    const Eigen::Vector2d offset(noise(rng), noise(rng));
+    image.keypoints[slots[k]] =
+        to_stored(observations[k].pixel + options.pixel_noise_px * offset);
+    image.point_to_keypoint.emplace_back(observations[k].point_idx, slots[k]);
+  }
+  for (size_t k = observations.size(); k < num_keypoints; ++k) {
+    image.keypoints[slots[k]] = to_stored(
+        Eigen::Vector2d(Uniform(rng, 0, width), Uniform(rng, 0, height)));
+  }
+  return image;
+}
+
+// Each image with its `k` nearest images by camera centre, as canonical
+// (smaller index, larger index) pairs, sorted and unique.
+std::vector<std::pair<uint32_t, uint32_t>> SelectPairs(
+    const Layout& layout, size_t k, colmap::ThreadPool* pool) {
+  const size_t num_images = layout.poses.size();
+  k = std::min(k, num_images - 1);
+  std::vector<std::vector<uint32_t>> neighbors(num_images);
+  ParallelFor(pool, num_images, [&](size_t begin, size_t end) {
+    std::vector<std::pair<double, uint32_t>> distances;
+    for (size_t i = begin; i < end; ++i) {
+      distances.clear();
+      for (size_t j = 0; j < num_images; ++j) {
+        if (j == i) continue;
+        distances.emplace_back(
+            (layout.poses[i].center - layout.poses[j].center).squaredNorm(),
+            static_cast<uint32_t>(j));
+      }
+      std::nth_element(distances.begin(), distances.begin() + (k - 1),
+                       distances.end());
+      for (size_t n = 0; n < k; ++n)
+        neighbors[i].push_back(distances[n].second);
+    }
+  });
+  std::vector<std::pair<uint32_t, uint32_t>> pairs;
+  pairs.reserve(num_images * k);
+  for (size_t i = 0; i < num_images; ++i) {
+    for (const uint32_t j : neighbors[i]) {
+      pairs.emplace_back(std::min<uint32_t>(i, j), std::max<uint32_t>(i, j));
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  return pairs;
+}
+
+struct SyntheticPair {
+  colmap::FeatureMatches raw_matches;
+  colmap::TwoViewGeometry geometry;
+};
+
+// True matches (all points both images see) plus wrong ones between
+// keypoints that see different points, one-to-one like a cross-checked
+// matcher, in random order.
+colmap::FeatureMatches MakeRawMatches(const SyntheticImage& image1,
+                                      const SyntheticImage& image2,
+                                      double wrong_match_ratio,
+                                      std::mt19937& rng) {
+  colmap::FeatureMatches matches;
+  auto it1 = image1.point_to_keypoint.begin();
+  auto it2 = image2.point_to_keypoint.begin();
+  while (it1 != image1.point_to_keypoint.end() &&
+         it2 != image2.point_to_keypoint.end()) {
+    if (it1->first < it2->first) {
+      ++it1;
+    } else if (it2->first < it1->first) {
+      ++it2;
+    } else {
+      matches.emplace_back(it1->second, it2->second);
+      ++it1;
+      ++it2;
+    }
+  }
+  if (matches.empty()) return matches;
+
+  const size_t num_wrong = static_cast<size_t>(
+      std::round(matches.size() * wrong_match_ratio / (1 - wrong_match_ratio)));
+  if (num_wrong > 0) {
+    const size_t num_keypoints1 = image1.keypoints.size();
+    const size_t num_keypoints2 = image2.keypoints.size();
+    std::vector<char> used1(num_keypoints1, 0), used2(num_keypoints2, 0);
+    for (const colmap::FeatureMatch& match : matches) {
+      used1[match.point2D_idx1] = 1;
+      used2[match.point2D_idx2] = 1;
+    }
+    std::uniform_int_distribution<uint32_t> pick1(0, num_keypoints1 - 1);
+    std::uniform_int_distribution<uint32_t> pick2(0, num_keypoints2 - 1);
+    size_t num_added = 0;
+    for (size_t attempt = 0; attempt < 50 * num_wrong && num_added < num_wrong;
+         ++attempt) {
+      const uint32_t idx1 = pick1(rng);
+      const uint32_t idx2 = pick2(rng);
+      if (used1[idx1] || used2[idx2]) continue;
+      used1[idx1] = used2[idx2] = 1;
+      matches.emplace_back(idx1, idx2);
+      ++num_added;
+    }
+  }
+  std::shuffle(matches.begin(), matches.end(), rng);
+  return matches;
+}
+
+Eigen::Matrix3d CrossProductMatrix(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+// Verification against the true geometry: cheap enough for 10k images.
+colmap::TwoViewGeometry VerifyWithGroundTruth(
+    const colmap::FeatureMatches& raw_matches, const Pose& pose1,
+    const Pose& pose2, const colmap::Camera& true_camera1,
+    const colmap::Camera& true_camera2,
+    const std::vector<Eigen::Vector2d>& normalized1,
+    const std::vector<Eigen::Vector2d>& normalized2, bool calibrated) {
+  const Eigen::Matrix3d R =
+      pose2.cam_from_world_R * pose1.cam_from_world_R.transpose();
+  const Eigen::Vector3d t =
+      (pose2.cam_from_world_t - R * pose1.cam_from_world_t).normalized();
+  const Eigen::Matrix3d E = CrossProductMatrix(t) * R;
+  // Sampson distance in normalized coordinates, scaled to pixels.
+  const double focal =
+      0.5 * (true_camera1.MeanFocalLength() + true_camera2.MeanFocalLength());
+  const double max_sampson = std::pow(kMaxEpipolarErrorPx / focal, 2);
+
+  colmap::TwoViewGeometry geometry;
+  for (const colmap::FeatureMatch& match : raw_matches) {
+    const Eigen::Vector3d x1 = normalized1[match.point2D_idx1].homogeneous();
+    const Eigen::Vector3d x2 = normalized2[match.point2D_idx2].homogeneous();
+    const Eigen::Vector3d Ex1 = E * x1;
+    const Eigen::Vector3d Etx2 = E.transpose() * x2;
+    const double x2tEx1 = x2.dot(Ex1);
+    const double sampson =
+        x2tEx1 * x2tEx1 /
+        (Ex1.head<2>().squaredNorm() + Etx2.head<2>().squaredNorm());
+    if (sampson <= max_sampson) geometry.inlier_matches.push_back(match);
+  }
+  if (geometry.inlier_matches.size() < static_cast<size_t>(kMinNumInliers)) {
+    geometry.inlier_matches.clear();
+    geometry.config = colmap::TwoViewGeometry::DEGENERATE;
+    return geometry;
+  }
+  geometry.config = calibrated ? colmap::TwoViewGeometry::CALIBRATED
+                               : colmap::TwoViewGeometry::UNCALIBRATED;
+  geometry.F = true_camera2.CalibrationMatrix().transpose().inverse() * E *
+               true_camera1.CalibrationMatrix().inverse();
+  geometry.F /= geometry.F.norm();
+  if (calibrated) geometry.E = E;
+  return geometry;
+}
+
+colmap::TwoViewGeometry::Options MatcherVerificationOptions() {
+  colmap::TwoViewGeometry::Options options;
+  options.min_num_inliers = kMinNumInliers;
+  options.ransac_options.max_error = kMaxEpipolarErrorPx;
+  options.ransac_options.confidence = 0.999;
+  options.ransac_options.min_num_trials = 100;
+  options.ransac_options.max_num_trials = 10000;
+  options.ransac_options.min_inlier_ratio = 0.25;
+  return options;
+}
+
+std::string ImageName(size_t image_idx) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "image%04zu.png", image_idx + 1);
+  return name;
+}
+
+}  // namespace
+
+bool SyntheticSceneOptions::Check() const {
+  return OptionsError(*this).empty();
+}
+
+Status WriteSyntheticScene(const SyntheticSceneOptions& options,
+                           const std::string& database_path,
+                           colmap::Reconstruction* ground_truth) {
+  const std::string options_error = OptionsError(options);
+  if (!options_error.empty()) {
+    return Status::Error("Invalid synthetic scene options: " + options_error +
+                         ".");
+  }
+  std::error_code error;
+  if (std::filesystem::exists(database_path, error)) {
+    return Status::Error("The database " + database_path +
+                         " already exists; the synthetic scene needs a new "
+                         "file.");
+  }
+  const std::filesystem::path parent =
+      std::filesystem::path(database_path).parent_path();
+  if (!parent.empty() && !std::filesystem::is_directory(parent, error)) {
+    return Status::Error("The folder " + parent.string() + " does not exist.");
+  }
+  if (ground_truth->NumCameras() > 0 || ground_truth->NumImages() > 0) {
+    return Status::Error("WriteSyntheticScene needs an empty reconstruction.");
+  }
+
+  colmap::ThreadPool pool(options.num_threads);
+  const size_t num_images = static_cast<size_t>(options.num_images);
+
+  // Cameras and poses.
+  const std::vector<colmap::Camera> true_cameras = MakeTrueCameras(options);
+  const std::vector<colmap::Camera> database_cameras =
+      MakeDatabaseCameras(options, true_cameras);
+  std::vector<int> camera_of_image(num_images);
+  for (size_t i = 0; i < num_images; ++i) {
+    camera_of_image[i] = static_cast<int>(i % true_cameras.size());
+  }
+  std::mt19937 pose_rng = MakeRng(options.random_seed, kPoseStream);
+  Layout layout;
+  if (options.layout == "ring") {
+    layout = MakeRingLayout(options.num_images, pose_rng);
+  } else if (options.layout == "forward") {
+    layout = MakeForwardLayout(options.num_images, pose_rng);
+  } else {
+    layout = MakeGridLayout(options.num_images, pose_rng);
+  }
+
+  // Points and what each image sees.
+  const size_t num_points =
+      options.num_points3D > 0
+          ? static_cast<size_t>(options.num_points3D)
+          : AutomaticNumPoints(options, layout, true_cameras, camera_of_image);
+  std::vector<ScenePoint> points(num_points);
+  std::mt19937 point_rng = MakeRng(options.random_seed, kPointStream);
+  for (ScenePoint& point : points) point = layout.sample_point(point_rng);
+  std::vector<std::vector<Observation>> observations =
+      ComputeVisibility(layout, true_cameras, camera_of_image, points, &pool);
+
+  // Keypoints, each image with its own random stream.
+  std::vector<SyntheticImage> images(num_images);
+  std::vector<std::vector<Eigen::Vector2d>> normalized(num_images);
+  ParallelFor(&pool, num_images, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      std::mt19937 rng = MakeRng(options.random_seed, kKeypointStream, i);
+      const colmap::Camera& camera = true_cameras[camera_of_image[i]];
+      images[i] =
+          MakeKeypoints(options, camera, std::move(observations[i]), rng);
+      if (options.verification == "ground_truth") {
+        normalized[i].reserve(images[i].keypoints.size());
+        for (const Eigen::Vector2d& keypoint : images[i].keypoints) {
+          normalized[i].push_back(camera.ImageToWorld(keypoint));
+        }
+      }
+    }
+  });
+  observations.clear();
+
+  // Matching and verification, each pair with its own random stream.
+  const std::vector<std::pair<uint32_t, uint32_t>> pair_idxs = SelectPairs(
+      layout, static_cast<size_t>(options.max_pairs_per_image), &pool);
+  const colmap::TwoViewGeometry::Options verification_options =
+      MatcherVerificationOptions();
+  std::vector<SyntheticPair> pairs(pair_idxs.size());
+  ParallelFor(&pool, pair_idxs.size(), [&](size_t begin, size_t end) {
+    for (size_t p = begin; p < end; ++p) {
+      const auto [i, j] = pair_idxs[p];
+      std::mt19937 rng = MakeRng(options.random_seed, kPairStream, p);
+      SyntheticPair& pair = pairs[p];
+      pair.raw_matches =
+          MakeRawMatches(images[i], images[j], options.wrong_match_ratio, rng);
+      if (pair.raw_matches.size() < static_cast<size_t>(kMinNumInliers)) {
+        continue;  // COLMAP's verifier skips these (config UNDEFINED).
+      }
+      const colmap::Camera& camera1 = database_cameras[camera_of_image[i]];
+      const colmap::Camera& camera2 = database_cameras[camera_of_image[j]];
+      if (options.verification == "colmap") {
+        // RANSAC draws from COLMAP's thread-local generator: reseed it per
+        // pair so that the result does not depend on thread scheduling.
+        colmap::SetPRNGSeed(static_cast<unsigned>(
+            MakeRng(options.random_seed, kRansacStream, p)()));
+        pair.geometry.Estimate(camera1, images[i].keypoints, camera2,
+                               images[j].keypoints, pair.raw_matches,
+                               verification_options);
+      } else {
+        pair.geometry = VerifyWithGroundTruth(
+            pair.raw_matches, layout.poses[i], layout.poses[j],
+            true_cameras[camera_of_image[i]], true_cameras[camera_of_image[j]],
+            normalized[i], normalized[j],
+            camera1.HasPriorFocalLength() && camera2.HasPriorFocalLength());
+      }
+    }
+  });
+
+  // The database, written as COLMAP's extractor and matcher would.
+  {
+    colmap::Database database(database_path);
+    colmap::DatabaseTransaction transaction(&database);
+    for (const colmap::Camera& camera : database_cameras) {
+      database.WriteCamera(camera, /*use_camera_id=*/true);
+    }
+    for (size_t i = 0; i < num_images; ++i) {
+      colmap::Image image;
+      image.SetImageId(static_cast<colmap::image_t>(i + 1));
+      image.SetName(ImageName(i));
+      image.SetCameraId(database_cameras[camera_of_image[i]].CameraId());
+      database.WriteImage(image, /*use_image_id=*/true);
+      colmap::FeatureKeypoints keypoints;
+      keypoints.reserve(images[i].keypoints.size());
+      for (const Eigen::Vector2d& xy : images[i].keypoints) {
+        keypoints.emplace_back(static_cast<float>(xy.x()),
+                               static_cast<float>(xy.y()));
+      }
+      database.WriteKeypoints(image.ImageId(), keypoints);
+    }
+    for (size_t p = 0; p < pair_idxs.size(); ++p) {
+      if (pairs[p].raw_matches.empty()) continue;
+      const colmap::image_t image_id1 = pair_idxs[p].first + 1;
+      const colmap::image_t image_id2 = pair_idxs[p].second + 1;
+      database.WriteMatches(image_id1, image_id2, pairs[p].raw_matches);
+      database.WriteTwoViewGeometry(image_id1, image_id2, pairs[p].geometry);
+    }
+  }
+
+  // The ground truth.
+  for (const colmap::Camera& camera : true_cameras) {
+    ground_truth->AddCamera(camera);
+  }
+  for (size_t i = 0; i < num_images; ++i) {
+    colmap::Image image;
+    image.SetImageId(static_cast<colmap::image_t>(i + 1));
+    image.SetName(ImageName(i));
+    image.SetCameraId(true_cameras[camera_of_image[i]].CameraId());
+    image.SetQvec(
+        colmap::RotationMatrixToQuaternion(layout.poses[i].cam_from_world_R));
+    image.SetTvec(layout.poses[i].cam_from_world_t);
+    image.SetPoints2D(images[i].keypoints);
+    ground_truth->AddImage(std::move(image));
+    ground_truth->RegisterImage(static_cast<colmap::image_t>(i + 1));
+  }
+  std::vector<colmap::Track> tracks(num_points);
+  for (size_t i = 0; i < num_images; ++i) {
+    for (const auto& [point_idx, keypoint_idx] : images[i].point_to_keypoint) {
+      tracks[point_idx].AddElement(static_cast<colmap::image_t>(i + 1),
+                                   keypoint_idx);
+    }
+  }
+  for (size_t p = 0; p < num_points; ++p) {
+    if (tracks[p].Length() < 2) continue;
+    ground_truth->AddPoint3D(points[p].xyz, std::move(tracks[p]));
+  }
+  return Status::Ok();
+}
+
+}  // namespace glomap

@@ -1,0 +1,50 @@
+// Track establishment (paper Sec. 3; glomap.md §2.5 and §4): concatenates the
+// inlier matches of the view graph into feature tracks, one 3D point each.
+#pragma once
+
+#include <cstddef>
+
+#include "base/reconstruction.h"
+#include "glomap/tracks.h"
+#include "glomap/view_graph.h"
+
+namespace glomap {
+
+struct TrackEstablishmentOptions {
+  // A track with two observations in one image farther apart than this (in
+  // pixels) merged two different scene points and is dropped.
+  double max_intra_image_distance_px = 10.0;
+  // Tracks seen in fewer distinct registered images are dropped.
+  int min_num_views_per_track = 3;
+  // Tracks seen in more distinct images are dropped (likely chained mismatches
+  // through repetitive structure; same as the reference).
+  int max_num_views_per_track = 100;
+  // Hard cap on the number of tracks returned, longest tracks first.
+  int max_num_tracks = 10000000;
+  // Per-image quota: longest tracks are taken until every image lies in at
+  // least this many taken tracks; a track is taken only while one of its
+  // images is below the quota. -1 = no quota (take all tracks). Global
+  // positioning needs far fewer points than the matches provide (the
+  // reference's docs suggest ~1000 per image); bundle adjustment and
+  // retriangulation densify the structure afterwards. Must be -1 or > 0.
+  int min_num_tracks_per_view = 1000;
+
+  bool Check() const;
+};
+
+// Union-find over the features (image_id, point2D_idx) joined by the inlier
+// matches (ImagePair::inlier_idxs into ImagePair::matches) of valid pairs
+// between registered images of `reconstruction`, then selection as described
+// by the options. Each track keeps at most one observation per image (COLMAP
+// forbids two): a track whose observations in one image are farther apart
+// than max_intra_image_distance_px is dropped and counted in
+// `num_inconsistent_tracks`, otherwise the feature with the smallest
+// point2D_idx is kept. Observations within a track are sorted by image id;
+// tracks are ordered longest first, ties by their smallest feature. Matches
+// that refer to non-existent keypoints are ignored.
+TrackStore EstablishTracks(const TrackEstablishmentOptions& options,
+                           const ViewGraph& view_graph,
+                           const colmap::Reconstruction& reconstruction,
+                           size_t* num_inconsistent_tracks = nullptr);
+
+}  // namespace glomap

@@ -1,0 +1,396 @@
+#include "glomap/bundle_adjustment.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <set>
+#include <utility>
+#include <vector>
+
+#include "base/pose.h"
+#include "base/projection.h"
+#include "base/reconstruction.h"
+
+namespace glomap {
+namespace {
+
+using Observation = std::pair<colmap::image_t, colmap::point2D_t>;
+
+struct SceneOptions {
+  int num_images = 20;
+  int num_points = 1500;
+  double noise_px = 0.5;
+  double outlier_ratio = 0.0;
+  // Each point is seen only by cameras whose ring angle is within this of a
+  // random direction, which gives realistic track lengths.
+  double visibility_arc_deg = 40;
+  int seed = 1;
+};
+
+// Cameras on a ring (with some height variation) around a ball of points,
+// looking at its centre. Keypoints are noisy projections; a fraction of the
+// observations is replaced by random keypoints (outliers, returned in
+// `outliers`). Points with fewer than three observations are not kept.
+colmap::Reconstruction MakeScene(const SceneOptions& options,
+                                 std::set<Observation>* outliers) {
+  std::mt19937 rng(options.seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+
+  colmap::Reconstruction reconstruction;
+  colmap::Camera camera;
+  camera.SetCameraId(1);
+  camera.InitializeWithName("SIMPLE_RADIAL", 800, 640, 480);
+  camera.Params()[3] = 0.02;  // Some radial distortion.
+  reconstruction.AddCamera(camera);
+
+  std::vector<double> ring_angles;
+  for (int i = 0; i < options.num_images; ++i) {
+    const double angle = 2 * M_PI * i / options.num_images;
+    ring_angles.push_back(angle);
+    const Eigen::Vector3d center(6 * std::cos(angle), 6 * std::sin(angle),
+                                 0.8 * std::sin(3 * angle));
+    const Eigen::Vector3d z = (-center).normalized();
+    const Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ()).normalized();
+    const Eigen::Vector3d y = z.cross(x);
+    Eigen::Matrix3d rotation;
+    rotation.row(0) = x;
+    rotation.row(1) = y;
+    rotation.row(2) = z;
+    colmap::Image image;
+    image.SetImageId(i + 1);
+    image.SetName("image" + std::to_string(i + 1));
+    image.SetCameraId(1);
+    image.SetQvec(colmap::RotationMatrixToQuaternion(rotation));
+    image.SetTvec(-rotation * center);
+    reconstruction.AddImage(image);
+  }
+
+  // Generate points and their keypoints.
+  std::vector<std::vector<Eigen::Vector2d>> keypoints(options.num_images);
+  std::vector<std::pair<Eigen::Vector3d, std::vector<Observation>>> points;
+  std::vector<Observation> outlier_list;
+  const double max_angle = options.visibility_arc_deg * M_PI / 180;
+  for (int p = 0; p < options.num_points; ++p) {
+    Eigen::Vector3d xyz(normal(rng), normal(rng), normal(rng));
+    xyz = xyz.normalized() * 2.0 * std::cbrt(uniform(rng));
+    const double direction = 2 * M_PI * uniform(rng);
+    std::vector<Observation> track;
+    std::vector<std::pair<int, Eigen::Vector2d>> projections;
+    for (int i = 0; i < options.num_images; ++i) {
+      double diff = std::abs(ring_angles[i] - direction);
+      diff = std::min(diff, 2 * M_PI - diff);
+      if (diff > max_angle) continue;
+      const colmap::Image& image = reconstruction.Image(i + 1);
+      const Eigen::Vector3d in_cam =
+          image.RotationMatrix() * xyz + image.Tvec();
+      if (in_cam.z() <= 0) continue;
+      const Eigen::Vector2d xy = camera.WorldToImage(in_cam.hnormalized());
+      if (xy.x() < 0 || xy.y() < 0 || xy.x() > 640 || xy.y() > 480) continue;
+      projections.emplace_back(i, xy);
+    }
+    if (projections.size() < 3) continue;
+    for (auto& [i, xy] : projections) {
+      Eigen::Vector2d keypoint =
+          xy + options.noise_px * Eigen::Vector2d(normal(rng), normal(rng));
+      const bool is_outlier = uniform(rng) < options.outlier_ratio;
+      if (is_outlier) {
+        do {
+          keypoint = Eigen::Vector2d(640 * uniform(rng), 480 * uniform(rng));
+        } while ((keypoint - xy).norm() < 30);
+      }
+      const Observation observation(i + 1, keypoints[i].size());
+      keypoints[i].push_back(keypoint);
+      track.push_back(observation);
+      if (is_outlier) outlier_list.push_back(observation);
+    }
+    points.emplace_back(xyz, track);
+  }
+  for (int i = 0; i < options.num_images; ++i) {
+    reconstruction.Image(i + 1).SetPoints2D(keypoints[i]);
+    reconstruction.RegisterImage(i + 1);
+  }
+  for (const auto& [xyz, observations] : points) {
+    colmap::Track track;
+    for (const auto& [image_id, idx] : observations) {
+      track.AddElement(image_id, idx);
+    }
+    reconstruction.AddPoint3D(xyz, track);
+  }
+  if (outliers != nullptr) {
+    outliers->insert(outlier_list.begin(), outlier_list.end());
+  }
+  return reconstruction;
+}
+
+// Rotations off by `rotation_deg`, centres and points by `position_sigma`
+// per axis (the scene has radius ~6), focal length by `focal_factor`.
+void Perturb(double rotation_deg, double position_sigma, double focal_factor,
+             int seed, colmap::Reconstruction* reconstruction) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (const colmap::image_t image_id : reconstruction->RegImageIds()) {
+    colmap::Image& image = reconstruction->Image(image_id);
+    const Eigen::Vector3d center = image.ProjectionCenter();
+    const Eigen::Vector3d axis =
+        Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+    const Eigen::Matrix3d rotation =
+        Eigen::AngleAxisd(rotation_deg * M_PI / 180, axis).toRotationMatrix() *
+        image.RotationMatrix();
+    const Eigen::Vector3d new_center =
+        center +
+        position_sigma * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    image.SetQvec(colmap::RotationMatrixToQuaternion(rotation));
+    image.SetTvec(-rotation * new_center);
+  }
+  for (auto& point3D : reconstruction->Points3D()) {
+    reconstruction->Point3D(point3D.first).XYZ() +=
+        position_sigma * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+  }
+  for (auto& camera : reconstruction->Cameras()) {
+    colmap::Camera& mutable_camera = reconstruction->Camera(camera.first);
+    for (const size_t idx : mutable_camera.FocalLengthIdxs()) {
+      mutable_camera.Params()[idx] *= focal_factor;
+    }
+  }
+}
+
+// Pixel reprojection errors of all observations except `excluded`.
+std::vector<double> ReprojectionErrors(
+    const colmap::Reconstruction& reconstruction,
+    const std::set<Observation>& excluded = {}) {
+  std::vector<double> errors;
+  for (const auto& point3D : reconstruction.Points3D()) {
+    for (const colmap::TrackElement& el : point3D.second.Track().Elements()) {
+      if (excluded.count({el.image_id, el.point2D_idx}) > 0) continue;
+      const colmap::Image& image = reconstruction.Image(el.image_id);
+      const colmap::Camera& camera = reconstruction.Camera(image.CameraId());
+      errors.push_back(std::sqrt(colmap::CalculateSquaredReprojectionError(
+          image.Point2D(el.point2D_idx).XY(), point3D.second.XYZ(),
+          image.Qvec(), image.Tvec(), camera)));
+    }
+  }
+  return errors;
+}
+
+double Median(std::vector<double> values) {
+  std::nth_element(values.begin(), values.begin() + values.size() / 2,
+                   values.end());
+  return values[values.size() / 2];
+}
+
+struct PoseErrors {
+  double max_position_error = 0;  // In ground-truth units.
+  double max_rotation_error_deg = 0;
+};
+
+// Errors of `estimate` against `truth` after a least-squares similarity
+// alignment of the camera centres.
+PoseErrors ComparePoses(const colmap::Reconstruction& estimate,
+                        const colmap::Reconstruction& truth) {
+  std::vector<colmap::image_t> image_ids = truth.RegImageIds();
+  std::sort(image_ids.begin(), image_ids.end());
+  Eigen::Matrix3Xd src(3, image_ids.size()), dst(3, image_ids.size());
+  for (size_t i = 0; i < image_ids.size(); ++i) {
+    src.col(i) = estimate.Image(image_ids[i]).ProjectionCenter();
+    dst.col(i) = truth.Image(image_ids[i]).ProjectionCenter();
+  }
+  const Eigen::Matrix4d transform = Eigen::umeyama(src, dst, true);
+  const double scale = transform.block<3, 1>(0, 0).norm();
+  const Eigen::Matrix3d rotation = transform.block<3, 3>(0, 0) / scale;
+  PoseErrors errors;
+  for (size_t i = 0; i < image_ids.size(); ++i) {
+    const Eigen::Vector3d aligned =
+        (transform * src.col(i).homogeneous()).head<3>();
+    errors.max_position_error =
+        std::max(errors.max_position_error, (aligned - dst.col(i)).norm());
+    const Eigen::Matrix3d aligned_rotation =
+        estimate.Image(image_ids[i]).RotationMatrix() * rotation.transpose();
+    const Eigen::Matrix3d diff =
+        truth.Image(image_ids[i]).RotationMatrix().transpose() *
+        aligned_rotation;
+    errors.max_rotation_error_deg =
+        std::max(errors.max_rotation_error_deg,
+                 Eigen::AngleAxisd(diff).angle() * 180 / M_PI);
+  }
+  return errors;
+}
+
+TEST(GlobalBundleAdjustment, RecoversPosesAndRemovesOutliers) {
+  SceneOptions scene_options;
+  scene_options.outlier_ratio = 0.03;
+  std::set<Observation> outliers;
+  const colmap::Reconstruction truth = MakeScene(scene_options, &outliers);
+  ASSERT_GT(outliers.size(), 100u);
+  colmap::Reconstruction reconstruction = truth;
+  Perturb(/*rotation_deg=*/0.5, /*position_sigma=*/0.05,
+          /*focal_factor=*/1.03, /*seed=*/2, &reconstruction);
+
+  const PoseErrors errors_before = ComparePoses(reconstruction, truth);
+  const double median_error_before =
+      Median(ReprojectionErrors(reconstruction, outliers));
+  const size_t num_observations_before =
+      reconstruction.ComputeNumObservations();
+
+  GlobalBundleAdjustmentOptions options;
+  int num_round_callbacks = 0;
+  const Status status = RunGlobalBundleAdjustment(
+      options, &reconstruction, {}, [&] { ++num_round_callbacks; });
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_GE(num_round_callbacks, 1);
+  EXPECT_LE(num_round_callbacks, options.num_rounds);
+
+  const PoseErrors errors_after = ComparePoses(reconstruction, truth);
+  const double median_error_after =
+      Median(ReprojectionErrors(reconstruction, outliers));
+  std::cout << "position error " << errors_before.max_position_error << " -> "
+            << errors_after.max_position_error << ", rotation error "
+            << errors_before.max_rotation_error_deg << " -> "
+            << errors_after.max_rotation_error_deg
+            << " deg, median reprojection error " << median_error_before
+            << " -> " << median_error_after << " px" << std::endl;
+  EXPECT_LT(errors_after.max_position_error, 0.01);  // Scene radius ~6.
+  // With 0.5 px noise the optimum itself is ~0.05 deg off (measured with
+  // function_tolerance 0), partly through the centre-based alignment.
+  EXPECT_LT(errors_after.max_rotation_error_deg, 0.1);
+  EXPECT_LT(errors_after.max_rotation_error_deg,
+            0.2 * errors_before.max_rotation_error_deg);
+  EXPECT_LT(median_error_after, 0.8);  // Noise sigma 0.5 px.
+  EXPECT_LT(median_error_after, 0.1 * median_error_before);
+  const colmap::Camera& camera = reconstruction.Camera(1);
+  EXPECT_NEAR(camera.FocalLength(), 800, 2.0);
+  EXPECT_NEAR(camera.PrincipalPointX(), 320, 1e-9);  // Not refined.
+
+  // Outlier observations are gone, inliers stay.
+  size_t num_outliers_left = 0;
+  size_t num_observations_after = 0;
+  for (const auto& point3D : reconstruction.Points3D()) {
+    for (const colmap::TrackElement& el : point3D.second.Track().Elements()) {
+      ++num_observations_after;
+      num_outliers_left += outliers.count({el.image_id, el.point2D_idx});
+    }
+  }
+  std::cout << "outliers left " << num_outliers_left << " / " << outliers.size()
+            << ", observations " << num_observations_before << " -> "
+            << num_observations_after << std::endl;
+  EXPECT_LT(num_outliers_left, 0.02 * outliers.size());
+  EXPECT_GT(num_observations_after,
+            0.95 * (num_observations_before - outliers.size()));
+  // The scene was normalized (extent 10 over the 10-90 % of centres).
+  EXPECT_LT(reconstruction.Image(1).ProjectionCenter().norm(), 20);
+}
+
+TEST(GlobalBundleAdjustment, FixedRotationStageKeepsRotations) {
+  colmap::Reconstruction truth = MakeScene(SceneOptions(), nullptr);
+  colmap::Reconstruction reconstruction = truth;
+  Perturb(0.0, 0.05, 1.0, 3, &reconstruction);
+  // Rotations slightly wrong, which the stage must not touch.
+  Perturb(0.2, 0.0, 1.0, 4, &reconstruction);
+  const colmap::Reconstruction before = reconstruction;
+  const double median_error_before = Median(ReprojectionErrors(reconstruction));
+
+  GlobalBundleAdjustmentOptions options;
+  options.num_rounds = 1;
+  options.skip_joint_stage = true;
+  ASSERT_TRUE(RunGlobalBundleAdjustment(options, &reconstruction).ok());
+  for (const colmap::image_t image_id : before.RegImageIds()) {
+    const Eigen::Matrix3d diff =
+        before.Image(image_id).RotationMatrix().transpose() *
+        reconstruction.Image(image_id).RotationMatrix();
+    EXPECT_LT(Eigen::AngleAxisd(diff).angle(), 1e-9) << image_id;
+  }
+  const double median_error_after = Median(ReprojectionErrors(reconstruction));
+  EXPECT_LT(median_error_after, 0.5 * median_error_before);
+
+  // The joint stage does change them (towards the truth).
+  colmap::Reconstruction joint = before;
+  options.skip_joint_stage = false;
+  ASSERT_TRUE(RunGlobalBundleAdjustment(options, &joint).ok());
+  EXPECT_LT(ComparePoses(joint, truth).max_rotation_error_deg,
+            0.5 * ComparePoses(before, truth).max_rotation_error_deg);
+}
+
+TEST(GlobalBundleAdjustment, InterruptStopsPromptly) {
+  SceneOptions scene_options;
+  scene_options.num_images = 30;
+  scene_options.num_points = 4000;
+  colmap::Reconstruction reconstruction = MakeScene(scene_options, nullptr);
+  Perturb(0.5, 0.1, 1.05, 5, &reconstruction);
+  int num_polls = 0;
+  Interrupt interrupt;
+  interrupt.is_stopped = [&num_polls] { return ++num_polls > 3; };
+  GlobalBundleAdjustmentOptions options;
+  options.function_tolerance = 0;  // Would run all iterations otherwise.
+  options.max_num_iterations = 1000;
+  const auto start = std::chrono::steady_clock::now();
+  const Status status =
+      RunGlobalBundleAdjustment(options, &reconstruction, interrupt);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
+  EXPECT_TRUE(status.cancelled());
+  EXPECT_FALSE(status.ok());
+  EXPECT_LE(num_polls, 6);  // Stopped within one Ceres iteration.
+  EXPECT_LT(seconds, 5.0);
+  // The reconstruction is still usable.
+  EXPECT_EQ(reconstruction.NumRegImages(), 30u);
+  EXPECT_GT(reconstruction.NumPoints3D(), 0u);
+}
+
+TEST(GlobalBundleAdjustment, Deterministic) {
+  SceneOptions scene_options;
+  scene_options.outlier_ratio = 0.02;
+  colmap::Reconstruction first = MakeScene(scene_options, nullptr);
+  Perturb(0.3, 0.05, 1.02, 6, &first);
+  colmap::Reconstruction second = first;
+  GlobalBundleAdjustmentOptions options;
+  options.num_threads = 1;
+  ASSERT_TRUE(RunGlobalBundleAdjustment(options, &first).ok());
+  ASSERT_TRUE(RunGlobalBundleAdjustment(options, &second).ok());
+  ASSERT_EQ(first.NumPoints3D(), second.NumPoints3D());
+  for (const colmap::image_t image_id : first.RegImageIds()) {
+    EXPECT_EQ(first.Image(image_id).Qvec(), second.Image(image_id).Qvec());
+    EXPECT_EQ(first.Image(image_id).Tvec(), second.Image(image_id).Tvec());
+  }
+  EXPECT_EQ(first.Camera(1).Params(), second.Camera(1).Params());
+}
+
+TEST(GlobalBundleAdjustment, RejectsBadInput) {
+  colmap::Reconstruction empty;
+  EXPECT_FALSE(RunGlobalBundleAdjustment({}, &empty).ok());
+  EXPECT_FALSE(RunGlobalBundleAdjustment({}, nullptr).ok());
+  GlobalBundleAdjustmentOptions options;
+  options.num_rounds = 0;
+  EXPECT_FALSE(options.Check());
+  colmap::Reconstruction reconstruction = MakeScene(SceneOptions(), nullptr);
+  EXPECT_FALSE(RunGlobalBundleAdjustment(options, &reconstruction).ok());
+}
+
+// 50 images with about 1000 observations each, the size the whole mapper
+// must handle in seconds.
+TEST(GlobalBundleAdjustment, FiftyImagesIsFast) {
+  SceneOptions scene_options;
+  scene_options.num_images = 50;
+  scene_options.num_points = 6500;
+  scene_options.outlier_ratio = 0.01;
+  colmap::Reconstruction reconstruction = MakeScene(scene_options, nullptr);
+  const double observations_per_image =
+      static_cast<double>(reconstruction.ComputeNumObservations()) / 50;
+  Perturb(0.5, 0.05, 1.03, 7, &reconstruction);
+  const auto start = std::chrono::steady_clock::now();
+  ASSERT_TRUE(RunGlobalBundleAdjustment({}, &reconstruction).ok());
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
+  std::cout << "50 images, " << observations_per_image
+            << " observations per image: " << seconds << " s" << std::endl;
+  EXPECT_GT(observations_per_image, 800);
+  EXPECT_LT(seconds, 30.0);  // Generous for a loaded CI machine.
+  EXPECT_LT(Median(ReprojectionErrors(reconstruction)), 0.8);
+}
+
+}  // namespace
+}  // namespace glomap

@@ -1,0 +1,415 @@
+#include "glomap/database_reader.h"
+
+#include <sqlite3.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "base/database.h"
+#include "estimators/two_view_geometry.h"
+#include "tests/support/test_paths.h"
+
+namespace glomap {
+namespace {
+
+using colmap::TwoViewGeometry;
+
+colmap::FeatureKeypoints MakeKeypoints(int num, float offset) {
+  colmap::FeatureKeypoints keypoints;
+  for (int i = 0; i < num; ++i) {
+    keypoints.emplace_back(offset + i, 2 * offset + 0.5f * i);
+  }
+  return keypoints;
+}
+
+colmap::FeatureMatches MakeMatches(int num, int shift = 0) {
+  colmap::FeatureMatches matches;
+  for (int i = 0; i < num; ++i) matches.emplace_back(i, (i + shift) % num);
+  return matches;
+}
+
+Eigen::Matrix3d MakeMatrix(double start) {
+  Eigen::Matrix3d m;
+  m << start, start + 1, start + 2, start + 3, start + 4, start + 5, start + 6,
+      start + 7, start + 8;
+  return m;
+}
+
+TwoViewGeometry MakeGeometry(int config, colmap::FeatureMatches matches,
+                             double start) {
+  TwoViewGeometry geometry;
+  geometry.config = config;
+  geometry.inlier_matches = std::move(matches);
+  geometry.F = MakeMatrix(start);
+  geometry.E = MakeMatrix(start + 10);
+  // Invertible, so that swapping the pair can invert it.
+  geometry.H = Eigen::Matrix3d::Identity() + 0.01 * MakeMatrix(start);
+  return geometry;
+}
+
+// Four images (ids 1..4) on two cameras and six stored pairs covering every
+// filter of the reader.
+std::string MakeTestDatabase(const std::string& dir) {
+  const std::string path = dir + "/database.db";
+  colmap::Database database(path);
+  colmap::Camera camera1;
+  camera1.InitializeWithName("SIMPLE_RADIAL", 800, 640, 480);
+  camera1.Params(3) = -0.01;
+  camera1.SetPriorFocalLength(true);
+  colmap::Camera camera2;
+  camera2.InitializeWithName("PINHOLE", 1000, 800, 600);
+  camera2.SetPriorFocalLength(false);
+  colmap::Camera unused_camera;
+  unused_camera.InitializeWithName("OPENCV", 500, 100, 100);
+  const colmap::camera_t camera_id1 = database.WriteCamera(camera1);
+  const colmap::camera_t camera_id2 = database.WriteCamera(camera2);
+  database.WriteCamera(unused_camera);
+
+  const colmap::camera_t camera_of_image[4] = {camera_id1, camera_id2,
+                                               camera_id1, camera_id1};
+  const int num_keypoints[4] = {30, 30, 30, 20};
+  for (int i = 0; i < 4; ++i) {
+    colmap::Image image;
+    image.SetName("img" + std::to_string(i + 1) + ".jpg");
+    image.SetCameraId(camera_of_image[i]);
+    if (i == 1) {
+      image.SetQvecPrior(Eigen::Vector4d(1, 0, 0, 0));
+      image.SetTvecPrior(Eigen::Vector3d(1, 2, 3));
+    }
+    const colmap::image_t image_id = database.WriteImage(image);
+    EXPECT_EQ(image_id, static_cast<colmap::image_t>(i + 1));
+    database.WriteKeypoints(image_id, MakeKeypoints(num_keypoints[i], i * 100));
+  }
+
+  // (1,2): calibrated, 20 inliers, 25 raw matches.
+  database.WriteMatches(1, 2, MakeMatches(25));
+  database.WriteTwoViewGeometry(
+      1, 2, MakeGeometry(TwoViewGeometry::CALIBRATED, MakeMatches(20, 1), 1));
+  // (3,1) written the other way round: stored canonically as (1,3).
+  database.WriteMatches(3, 1, MakeMatches(22));
+  database.WriteTwoViewGeometry(
+      3, 1, MakeGeometry(TwoViewGeometry::UNCALIBRATED, MakeMatches(17, 2), 20));
+  // (1,4): only 10 inliers.
+  database.WriteTwoViewGeometry(
+      1, 4, MakeGeometry(TwoViewGeometry::CALIBRATED, MakeMatches(10), 30));
+  // (2,3): a watermark.
+  database.WriteTwoViewGeometry(
+      2, 3, MakeGeometry(TwoViewGeometry::WATERMARK, MakeMatches(20), 40));
+  // (3,4): degenerate.
+  database.WriteTwoViewGeometry(
+      3, 4, MakeGeometry(TwoViewGeometry::DEGENERATE, MakeMatches(20), 50));
+  // (2,4): image 4 has 20 keypoints, so two of these 22 matches are invalid.
+  colmap::FeatureMatches out_of_range = MakeMatches(20);
+  out_of_range.emplace_back(20, 20);
+  out_of_range.emplace_back(3, 25);
+  database.WriteTwoViewGeometry(
+      2, 4, MakeGeometry(TwoViewGeometry::PLANAR, out_of_range, 60));
+  return path;
+}
+
+// Runs one SQL statement on a database through SQLite directly (to make
+// broken databases that colmap::Database would refuse to write).
+void ExecuteSql(const std::string& path, const std::string& sql) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  char* message = nullptr;
+  const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &message);
+  EXPECT_EQ(rc, SQLITE_OK) << (message ? message : "");
+  sqlite3_free(message);
+  sqlite3_close(db);
+}
+
+Status Read(const std::string& path, const DatabaseReaderOptions& options,
+            colmap::Reconstruction* reconstruction, ViewGraph* view_graph) {
+  return ReadDatabase(path, options, reconstruction, view_graph);
+}
+
+Status ReadDefault(const std::string& path) {
+  colmap::Reconstruction reconstruction;
+  ViewGraph view_graph;
+  return ReadDatabase(path, DatabaseReaderOptions(), &reconstruction,
+                      &view_graph);
+}
+
+TEST(DatabaseReader, ReadsEveryField) {
+  const std::string dir = testing::CreateTestDir("database_reader_fields");
+  const std::string path = MakeTestDatabase(dir);
+  const std::string digest = testing::FileDigest(path);
+
+  colmap::Reconstruction reconstruction;
+  ViewGraph view_graph;
+  const Status status =
+      Read(path, DatabaseReaderOptions(), &reconstruction, &view_graph);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(testing::FileDigest(path), digest);
+  EXPECT_FALSE(std::filesystem::exists(path + "-shm"));
+  EXPECT_FALSE(std::filesystem::exists(path + "-wal"));
+
+  // Cameras: only the two used ones, with their parameters and prior flags.
+  ASSERT_EQ(reconstruction.NumCameras(), 2);
+  const colmap::Camera& camera1 = reconstruction.Camera(1);
+  EXPECT_EQ(camera1.ModelName(), "SIMPLE_RADIAL");
+  EXPECT_EQ(camera1.Width(), 640);
+  EXPECT_EQ(camera1.Height(), 480);
+  EXPECT_EQ(camera1.Params(), std::vector<double>({800, 320, 240, -0.01}));
+  EXPECT_TRUE(camera1.HasPriorFocalLength());
+  const colmap::Camera& camera2 = reconstruction.Camera(2);
+  EXPECT_EQ(camera2.ModelName(), "PINHOLE");
+  EXPECT_EQ(camera2.Params(), std::vector<double>({1000, 1000, 400, 300}));
+  EXPECT_FALSE(camera2.HasPriorFocalLength());
+  EXPECT_FALSE(reconstruction.ExistsCamera(3));
+
+  // Images: keypoints as Points2D, not registered, identity pose, priors.
+  ASSERT_EQ(reconstruction.NumImages(), 4);
+  EXPECT_EQ(reconstruction.NumRegImages(), 0);
+  for (colmap::image_t image_id = 1; image_id <= 4; ++image_id) {
+    const colmap::Image& image = reconstruction.Image(image_id);
+    EXPECT_EQ(image.Name(), "img" + std::to_string(image_id) + ".jpg");
+    EXPECT_FALSE(image.IsRegistered());
+    EXPECT_EQ(image.Qvec(), Eigen::Vector4d(1, 0, 0, 0));
+    EXPECT_EQ(image.Tvec(), Eigen::Vector3d::Zero());
+    const float offset = (image_id - 1) * 100;
+    ASSERT_EQ(image.NumPoints2D(), image_id == 4 ? 20 : 30);
+    EXPECT_EQ(image.Point2D(7).XY(),
+              Eigen::Vector2d(offset + 7, 2 * offset + 3.5));
+  }
+  EXPECT_EQ(reconstruction.Image(1).CameraId(), 1);
+  EXPECT_EQ(reconstruction.Image(2).CameraId(), 2);
+  EXPECT_TRUE(reconstruction.Image(1).QvecPrior().array().isNaN().all());
+  EXPECT_EQ(reconstruction.Image(2).TvecPrior(), Eigen::Vector3d(1, 2, 3));
+
+  // Pairs: (1,2), (1,3), (2,3) watermark and (2,4) with 18 valid matches;
+  // (1,4) has too few inliers and (3,4) is degenerate.
+  const auto& pairs = view_graph.Pairs();
+  ASSERT_EQ(pairs.size(), 4);
+  const auto pair_id = [](colmap::image_t id1, colmap::image_t id2) {
+    return colmap::Database::ImagePairToPairId(id1, id2);
+  };
+  ASSERT_EQ(pairs.count(pair_id(1, 2)), 1);
+  ASSERT_EQ(pairs.count(pair_id(1, 3)), 1);
+  ASSERT_EQ(pairs.count(pair_id(2, 3)), 1);
+  ASSERT_EQ(pairs.count(pair_id(2, 4)), 1);
+
+  const ImagePair& pair12 = pairs.at(pair_id(1, 2));
+  EXPECT_EQ(pair12.image_id1, 1);
+  EXPECT_EQ(pair12.image_id2, 2);
+  EXPECT_EQ(pair12.config, TwoViewGeometry::CALIBRATED);
+  EXPECT_EQ(pair12.num_raw_matches, 25);
+  EXPECT_EQ(pair12.F, MakeMatrix(1));  // F(0, 1) == 2: not transposed
+  EXPECT_EQ(pair12.E, MakeMatrix(11));
+  EXPECT_EQ(pair12.H, Eigen::Matrix3d::Identity() + 0.01 * MakeMatrix(1));
+  ASSERT_EQ(pair12.matches.size(), 20);
+  EXPECT_EQ(pair12.matches[5].point2D_idx1, 5);
+  EXPECT_EQ(pair12.matches[5].point2D_idx2, 6);
+  EXPECT_FALSE(pair12.has_relative_pose);
+  EXPECT_TRUE(pair12.is_valid);
+
+  // Written as (3,1): stored canonically, so (1,3) sees the swapped matches
+  // and the transposed F.
+  const ImagePair& pair13 = pairs.at(pair_id(1, 3));
+  EXPECT_EQ(pair13.image_id1, 1);
+  EXPECT_EQ(pair13.image_id2, 3);
+  EXPECT_EQ(pair13.config, TwoViewGeometry::UNCALIBRATED);
+  EXPECT_EQ(pair13.num_raw_matches, 22);
+  EXPECT_EQ(pair13.F, MakeMatrix(20).transpose());
+  ASSERT_EQ(pair13.matches.size(), 17);
+  EXPECT_EQ(pair13.matches[4].point2D_idx1, 6);
+  EXPECT_EQ(pair13.matches[4].point2D_idx2, 4);
+
+  EXPECT_EQ(pairs.at(pair_id(2, 3)).config, TwoViewGeometry::WATERMARK);
+  EXPECT_EQ(pairs.at(pair_id(2, 3)).num_raw_matches, 0);
+
+  const ImagePair& pair24 = pairs.at(pair_id(2, 4));
+  EXPECT_EQ(pair24.config, TwoViewGeometry::PLANAR);
+  EXPECT_EQ(pair24.matches.size(), 20);
+  for (const auto& match : pair24.matches) {
+    EXPECT_LT(match.point2D_idx2, 20);
+  }
+}
+
+TEST(DatabaseReader, Filters) {
+  const std::string dir = testing::CreateTestDir("database_reader_filters");
+  const std::string path = MakeTestDatabase(dir);
+  const auto pair_id = [](colmap::image_t id1, colmap::image_t id2) {
+    return colmap::Database::ImagePairToPairId(id1, id2);
+  };
+  {
+    DatabaseReaderOptions options;
+    options.min_num_matches = 5;
+    colmap::Reconstruction reconstruction;
+    ViewGraph view_graph;
+    ASSERT_TRUE(Read(path, options, &reconstruction, &view_graph).ok());
+    EXPECT_EQ(view_graph.NumPairs(), 5);
+    EXPECT_EQ(view_graph.Pairs().count(pair_id(1, 4)), 1);
+    EXPECT_EQ(view_graph.Pairs().count(pair_id(3, 4)), 0);
+  }
+  {
+    DatabaseReaderOptions options;
+    options.min_num_matches = 21;
+    colmap::Reconstruction reconstruction;
+    ViewGraph view_graph;
+    const Status status = Read(path, options, &reconstruction, &view_graph);
+    EXPECT_FALSE(status.ok());
+    EXPECT_NE(status.message().find("no verified image pairs with at least 21 "
+                                    "matches: run a matcher first"),
+              std::string::npos)
+        << status.message();
+  }
+  {
+    DatabaseReaderOptions options;
+    options.ignore_watermarks = true;
+    colmap::Reconstruction reconstruction;
+    ViewGraph view_graph;
+    ASSERT_TRUE(Read(path, options, &reconstruction, &view_graph).ok());
+    EXPECT_EQ(view_graph.NumPairs(), 3);
+    EXPECT_EQ(view_graph.Pairs().count(pair_id(2, 3)), 0);
+  }
+  {
+    DatabaseReaderOptions options;
+    options.image_names = {"img1.jpg", "img3.jpg", "not_there.jpg"};
+    colmap::Reconstruction reconstruction;
+    ViewGraph view_graph;
+    ASSERT_TRUE(Read(path, options, &reconstruction, &view_graph).ok());
+    EXPECT_EQ(reconstruction.NumImages(), 2);
+    EXPECT_TRUE(reconstruction.ExistsImage(1));
+    EXPECT_TRUE(reconstruction.ExistsImage(3));
+    EXPECT_EQ(reconstruction.NumCameras(), 1);
+    ASSERT_EQ(view_graph.NumPairs(), 1);
+    EXPECT_EQ(view_graph.Pairs().begin()->first, pair_id(1, 3));
+  }
+  {
+    DatabaseReaderOptions options;
+    options.image_names = {"nothing.jpg"};
+    colmap::Reconstruction reconstruction;
+    ViewGraph view_graph;
+    EXPECT_FALSE(Read(path, options, &reconstruction, &view_graph).ok());
+  }
+}
+
+TEST(DatabaseReader, ReadsWhileWriterHasLog) {
+  // A database still open in COLMAP has a write-ahead log: read-only mode
+  // (not immutable) must see its content.
+  const std::string dir = testing::CreateTestDir("database_reader_wal");
+  const std::string path = dir + "/database with ?#% chars.db";
+  colmap::Database database(path);
+  colmap::Camera camera;
+  camera.InitializeWithName("SIMPLE_PINHOLE", 500, 100, 100);
+  database.WriteCamera(camera);
+  for (int i = 0; i < 2; ++i) {
+    colmap::Image image;
+    image.SetName("a" + std::to_string(i));
+    image.SetCameraId(1);
+    database.WriteKeypoints(database.WriteImage(image), MakeKeypoints(40, 1));
+  }
+  database.WriteTwoViewGeometry(
+      1, 2, MakeGeometry(TwoViewGeometry::CALIBRATED, MakeMatches(30), 1));
+  ASSERT_TRUE(std::filesystem::exists(path + "-wal"));
+  ASSERT_GT(std::filesystem::file_size(path + "-wal"), 0);
+
+  colmap::Reconstruction reconstruction;
+  ViewGraph view_graph;
+  const Status status =
+      Read(path, DatabaseReaderOptions(), &reconstruction, &view_graph);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(reconstruction.NumImages(), 2);
+  EXPECT_EQ(view_graph.NumPairs(), 1);
+}
+
+TEST(DatabaseReader, Errors) {
+  const std::string dir = testing::CreateTestDir("database_reader_errors");
+  const auto expect_error = [](const Status& status, const std::string& text) {
+    EXPECT_FALSE(status.ok());
+    EXPECT_NE(status.message().find(text), std::string::npos)
+        << status.message();
+    EXPECT_EQ(status.message().find('\n'), std::string::npos);
+  };
+
+  expect_error(ReadDefault(dir + "/missing.db"), "does not exist");
+  expect_error(ReadDefault(dir), "is a folder");
+
+  const std::string text_path = dir + "/text.db";
+  std::ofstream(text_path) << "this is not a database, just some text that is "
+                              "long enough to be a header\n";
+  expect_error(ReadDefault(text_path), "is not a COLMAP database");
+
+  const std::string other_path = dir + "/other.db";
+  ExecuteSql(other_path, "CREATE TABLE foo (a INTEGER);");
+  expect_error(ReadDefault(other_path), "is not a COLMAP database");
+
+  const std::string empty_path = dir + "/empty.db";
+  { colmap::Database database(empty_path); }
+  expect_error(ReadDefault(empty_path), "contains no images");
+
+  const std::string no_pairs_path = dir + "/no_pairs.db";
+  {
+    colmap::Database database(no_pairs_path);
+    colmap::Camera camera;
+    camera.InitializeWithName("SIMPLE_PINHOLE", 500, 100, 100);
+    database.WriteCamera(camera);
+    colmap::Image image;
+    image.SetName("a");
+    image.SetCameraId(1);
+    database.WriteImage(image);
+  }
+  expect_error(ReadDefault(no_pairs_path),
+               "no verified image pairs with at least 15 matches: run a "
+               "matcher first");
+
+  const auto broken_copy = [&](const std::string& name,
+                               const std::string& sql) {
+    const std::string dir_copy = testing::CreateTestDir(
+        "database_reader_errors_" + name);
+    const std::string path = MakeTestDatabase(dir_copy);
+    ExecuteSql(path, sql);
+    return path;
+  };
+  expect_error(ReadDefault(broken_copy("model",
+                                       "UPDATE cameras SET model = 42 WHERE "
+                                       "camera_id = 1;")),
+               "unsupported camera model id 42");
+  expect_error(ReadDefault(broken_copy("params",
+                                       "UPDATE cameras SET params = "
+                                       "zeroblob(24) WHERE camera_id = 2;")),
+               "has 3 parameters, but its model PINHOLE needs 4");
+  expect_error(ReadDefault(broken_copy("camera_ref",
+                                       "UPDATE images SET camera_id = 99 WHERE "
+                                       "image_id = 2;")),
+               "refers to camera 99");
+  expect_error(ReadDefault(broken_copy("keypoints",
+                                       "UPDATE keypoints SET cols = 3;")),
+               "is corrupt");
+  expect_error(
+      ReadDefault(broken_copy("no_table", "DROP TABLE two_view_geometries;")),
+      "is not a COLMAP database (no table two_view_geometries)");
+}
+
+TEST(DatabaseReader, RealDatabaseStaysUnchanged) {
+  const std::string datasets = testing::SharedDatasetsDir();
+  if (datasets.empty()) GTEST_SKIP() << "shared datasets are absent";
+  const std::string path = datasets + "/fountain-P11/database.db";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " is absent";
+  const std::string digest = testing::FileDigest(path);
+  const auto mtime = std::filesystem::last_write_time(path);
+
+  colmap::Reconstruction reconstruction;
+  ViewGraph view_graph;
+  const Status status =
+      Read(path, DatabaseReaderOptions(), &reconstruction, &view_graph);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(reconstruction.NumImages(), 11);
+  EXPECT_GT(view_graph.NumPairs(), 0);
+  for (const auto& [pair_id, pair] : view_graph.Pairs()) {
+    EXPECT_LT(pair.image_id1, pair.image_id2);
+    EXPECT_GE(pair.matches.size(), 15);
+    EXPECT_GE(pair.num_raw_matches, static_cast<int>(pair.matches.size()));
+    EXPECT_NE(pair.F.norm(), 0);
+  }
+  EXPECT_EQ(testing::FileDigest(path), digest);
+  EXPECT_EQ(std::filesystem::last_write_time(path), mtime);
+  EXPECT_FALSE(std::filesystem::exists(path + "-shm"));
+}
+
+}  // namespace
+}  // namespace glomap

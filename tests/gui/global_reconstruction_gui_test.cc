@@ -1,0 +1,398 @@
+// "Reconstruction > Global reconstruction" in a real COLMAP MainWindow, as a
+// user drives it: open a project (`colmap gui --project_path ...`), click the
+// menu entry, wait, look at the models, the statistics window, File > Export,
+// and take a screenshot. Runs under Xvfb with Mesa (see gui/CMakeLists.txt);
+// skips when the shared datasets are absent.
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <QtWidgets>
+#include <gtest/gtest.h>
+
+#include "base/database.h"
+#include "colmap_ext/global_mapper_options.h"
+#include "gui/global_mapper_options_dialog.h"
+#include "gui/global_reconstruction_ui.h"
+#include "tests/support/test_paths.h"
+#include "ui/main_window.h"
+#include "util/option_manager.h"
+
+namespace colmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr qint64 kRunTimeoutMs = 10 * 60 * 1000;
+
+std::string FountainDir() {
+  const std::string datasets = glomap::testing::SharedDatasetsDir();
+  if (datasets.empty()) return "";
+  const fs::path dir = fs::path(datasets) / "fountain-P11";
+  if (!fs::exists(dir / "database.db") || !fs::is_directory(dir / "images")) {
+    return "";
+  }
+  return dir.string();
+}
+
+// A project as the user has it on disk: a copy of the database (never write
+// into the shared folder) and a project.ini written the stock way.
+std::string WriteProject(const std::string& test_dir,
+                         const std::string& fountain_dir) {
+  const fs::path database_path = fs::path(test_dir) / "database.db";
+  fs::copy_file(fs::path(fountain_dir) / "database.db", database_path,
+                fs::copy_options::overwrite_existing);
+  fs::permissions(database_path, fs::perms::owner_read | fs::perms::owner_write,
+                  fs::perm_options::add);
+  OptionManager options;
+  options.AddAllOptions();
+  *options.database_path = database_path.string();
+  *options.image_path = (fs::path(fountain_dir) / "images").string();
+  const std::string project_path = (fs::path(test_dir) / "project.ini").string();
+  options.Write(project_path);
+  return project_path;
+}
+
+// The options of `colmap gui --project_path <project_path>` (src/exe/gui.cc).
+// `import_path` must outlive `options`, which keeps a pointer to it.
+void ParseGuiArguments(const std::string& project_path, OptionManager* options,
+                       std::string* import_path) {
+  options->AddDefaultOption("import_path", import_path);
+  options->AddAllOptions();
+  std::vector<std::string> args = {"colmap", "--project_path", project_path};
+  std::vector<char*> argv;
+  for (std::string& arg : args) argv.push_back(arg.data());
+  options->Parse(static_cast<int>(argv.size()), argv.data());
+}
+
+// Finds an action by its text in one of the window's menus.
+QAction* FindMenuAction(QMainWindow* window, const QString& menu_title,
+                        const QString& text) {
+  for (QAction* menu_action : window->menuBar()->actions()) {
+    if (menu_action->menu() == nullptr || menu_action->text() != menu_title) {
+      continue;
+    }
+    for (QAction* action : menu_action->menu()->actions()) {
+      if (action->text() == text) return action;
+    }
+  }
+  return nullptr;
+}
+
+void ProcessEventsFor(int msecs) {
+  QElapsedTimer timer;
+  timer.start();
+  while (timer.elapsed() < msecs) {
+    QApplication::processEvents(QEventLoop::AllEvents, 20);
+  }
+}
+
+// Spins the event loop until `done` or the timeout; returns `done()`.
+bool WaitUntil(const std::function<bool()>& done, qint64 timeout_ms) {
+  QElapsedTimer timer;
+  timer.start();
+  while (!done() && timer.elapsed() < timeout_ms) {
+    QApplication::processEvents(QEventLoop::AllEvents, 20);
+  }
+  return done();
+}
+
+// Answers modal dialogs (message boxes, file dialogs) as they appear, from
+// inside their own event loop, like a user would.
+class ModalDialogHandler {
+ public:
+  explicit ModalDialogHandler(std::function<bool(QWidget*)> handle)
+      : handle_(std::move(handle)) {
+    QObject::connect(&timer_, &QTimer::timeout, [this]() {
+      QWidget* modal = QApplication::activeModalWidget();
+      if (modal != nullptr && modal->isVisible() && handle_(modal)) {
+        ++num_handled_;
+      }
+    });
+    timer_.start(50);
+  }
+
+  int NumHandled() const { return num_handled_; }
+
+ private:
+  std::function<bool(QWidget*)> handle_;
+  QTimer timer_;
+  int num_handled_ = 0;
+};
+
+// Text of the statistics window's row `name`, or "" if absent.
+QString StatisticsValue(QMainWindow* window, const QString& name) {
+  for (QTableWidget* table : window->findChildren<QTableWidget*>()) {
+    for (int row = 0; row < table->rowCount(); ++row) {
+      if (table->item(row, 0) != nullptr &&
+          table->item(row, 0)->text() == name && table->item(row, 1)) {
+        return table->item(row, 1)->text();
+      }
+    }
+  }
+  return "";
+}
+
+// Fraction of pixels in `rect` that differ from its corner colour.
+double DrawnFraction(const QImage& image, const QRect& rect) {
+  const QRgb background = image.pixel(rect.topLeft() + QPoint(2, 2));
+  size_t num_drawn = 0;
+  size_t num_pixels = 0;
+  for (int y = rect.top(); y <= rect.bottom(); y += 2) {
+    for (int x = rect.left(); x <= rect.right(); x += 2) {
+      ++num_pixels;
+      if (image.pixel(x, y) != background) ++num_drawn;
+    }
+  }
+  return num_pixels == 0 ? 0 : static_cast<double>(num_drawn) / num_pixels;
+}
+
+TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
+  const std::string fountain_dir = FountainDir();
+  if (fountain_dir.empty()) {
+    GTEST_SKIP() << "Shared dataset fountain-P11 not found.";
+  }
+  const std::string test_dir =
+      glomap::testing::CreateTestDir("global_reconstruction_gui");
+  const std::string project_path = WriteProject(test_dir, fountain_dir);
+
+  // Options beside the project are picked up on start: a non-default seed.
+  glomap::GlobalMapperOptions saved_options;
+  saved_options.random_seed = 7;
+  ASSERT_TRUE(glomap::WriteGlobalMapperOptionsFile(
+      GlobalReconstructionUi::OptionsFilePath(project_path), saved_options));
+
+  OptionManager options;
+  std::string import_path;
+  ParseGuiArguments(project_path, &options, &import_path);
+  MainWindow window(options);
+  GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
+  window.resize(1400, 860);
+  window.show();
+  ProcessEventsFor(300);
+  EXPECT_EQ(ui->Options()->random_seed, 7);
+
+  // The menu entry sits after the incremental actions; a tool-bar button too.
+  QAction* run = FindMenuAction(&window, "Reconstruction",
+                                "Global reconstruction");
+  ASSERT_NE(run, nullptr);
+  ASSERT_TRUE(run->isEnabled());
+  bool in_toolbar = false;
+  for (QToolBar* toolbar : window.findChildren<QToolBar*>()) {
+    in_toolbar = in_toolbar || toolbar->actions().contains(run);
+  }
+  EXPECT_TRUE(in_toolbar);
+  QAction* options_action = FindMenuAction(
+      &window, "Reconstruction", "Global reconstruction options...");
+  ASSERT_NE(options_action, nullptr);
+
+  // The options dialog lists every table entry, grouped by stage.
+  options_action->trigger();
+  ProcessEventsFor(100);
+  EXPECT_TRUE(ui->OptionsDialog()->isVisible());
+  glomap::GlobalMapperOptions table_options;
+  EXPECT_EQ(ui->OptionsDialog()->NumOptions(),
+            static_cast<int>(
+                glomap::GlobalMapperOptionTable(&table_options).size()));
+  EXPECT_GT(ui->OptionsDialog()->Groups().size(), 1);
+  EXPECT_TRUE(ui->OptionsDialog()->Apply());
+  ui->OptionsDialog()->hide();
+  EXPECT_EQ(ui->Options()->random_seed, 7);
+
+  // Any message box during the run is a failure: record and close it.
+  QStringList unexpected_messages;
+  ModalDialogHandler message_boxes([&](QWidget* modal) {
+    if (QMessageBox* box = qobject_cast<QMessageBox*>(modal)) {
+      unexpected_messages << box->text();
+      box->reject();
+      return true;
+    }
+    return false;
+  });
+
+  QElapsedTimer run_timer;
+  run_timer.start();
+  run->trigger();
+  EXPECT_TRUE(ui->IsRunning());
+  EXPECT_FALSE(run->isEnabled()) << "The action must be blocked while running";
+  int max_stage_seen = -1;
+  QString progress_text;
+  ASSERT_TRUE(WaitUntil(
+      [&]() {
+        for (QLabel* label : window.statusBar()->findChildren<QLabel*>()) {
+          if (label->text().startsWith("Global reconstruction: Stage")) {
+            progress_text = label->text();
+            max_stage_seen =
+                std::max(max_stage_seen,
+                         progress_text.section(' ', 3, 3).section('/', 0, 0)
+                             .toInt());
+          }
+        }
+        return !ui->IsRunning();
+      },
+      kRunTimeoutMs))
+      << "Global reconstruction did not finish";
+  std::cout << "Global reconstruction took " << run_timer.elapsed() / 1000.0
+            << " s; last progress text: " << progress_text.toStdString()
+            << std::endl;
+  EXPECT_GE(max_stage_seen, 2) << "The status bar never showed the stages";
+  EXPECT_TRUE(unexpected_messages.isEmpty())
+      << unexpected_messages.join("\n").toStdString();
+  ASSERT_TRUE(ui->LastStatus().ok()) << ui->LastStatus().message();
+  EXPECT_TRUE(run->isEnabled());
+
+  // One model per camera cluster; fountain has one camera and 11 images.
+  const ReconstructionManager& models = ui->Models();
+  ASSERT_GE(models.Size(), 1u);
+  const Reconstruction& model = models.Get(0);
+  EXPECT_EQ(model.NumRegImages(), 11u);
+  EXPECT_GT(model.NumPoints3D(), 1000u);
+
+  // The stock statistics window shows real values.
+  QAction* stats = FindMenuAction(&window, "Extras", "Show model statistics");
+  ASSERT_NE(stats, nullptr);
+  stats->trigger();
+  ProcessEventsFor(100);
+  EXPECT_EQ(StatisticsValue(&window, "Registered images"), "11");
+  const double mean_error =
+      StatisticsValue(&window, "Mean reprojection error").toDouble();
+  EXPECT_GT(mean_error, 0.0);
+  EXPECT_LT(mean_error, 4.0);
+  EXPECT_GT(StatisticsValue(&window, "Mean track length").toDouble(), 2.0);
+  for (QWidget* widget : QApplication::topLevelWidgets()) {
+    if (widget->windowTitle() == "Reconstruction statistics") widget->hide();
+  }
+
+  // Screenshot of the whole main window, model drawn by Mesa.
+  ProcessEventsFor(500);
+  const QImage screenshot = window.grab().toImage();
+  const std::string screenshot_path =
+      std::string(GLOMAP_BINARY_DIR) + "/gui_screenshot.png";
+  ASSERT_TRUE(screenshot.save(QString::fromStdString(screenshot_path)));
+  std::cout << "Screenshot: " << screenshot_path << std::endl;
+  QWidget* viewer = window.centralWidget();
+  const QRect viewer_rect(viewer->mapTo(&window, QPoint(0, 0)),
+                          viewer->size());
+  EXPECT_GT(DrawnFraction(screenshot, viewer_rect), 0.002)
+      << "The model viewer shows nothing";
+
+  // File > Export writes the selected (largest) model.
+  const std::string export_dir = test_dir + "/export";
+  fs::create_directories(export_dir);
+  ModalDialogHandler file_dialogs([&](QWidget* modal) {
+    if (QFileDialog* dialog = qobject_cast<QFileDialog*>(modal)) {
+      dialog->setDirectory(QString::fromStdString(export_dir));
+      dialog->selectFile(QString::fromStdString(export_dir));
+      static_cast<QDialog*>(dialog)->accept();  // QFileDialog::accept()
+      return true;
+    }
+    return false;
+  });
+  QAction* export_action = FindMenuAction(&window, "File", "Export model");
+  ASSERT_NE(export_action, nullptr);
+  export_action->trigger();
+  ASSERT_TRUE(WaitUntil(
+      [&]() { return fs::exists(export_dir + "/points3D.bin"); }, 60000));
+  ProcessEventsFor(500);
+  Reconstruction exported;
+  exported.ReadBinary(export_dir);
+  EXPECT_EQ(exported.NumRegImages(), 11u);
+  EXPECT_EQ(exported.NumPoints3D(), model.NumPoints3D());
+}
+
+TEST(GlobalReconstructionGui, CancelLeavesNoModel) {
+  const std::string fountain_dir = FountainDir();
+  if (fountain_dir.empty()) {
+    GTEST_SKIP() << "Shared dataset fountain-P11 not found.";
+  }
+  const std::string test_dir =
+      glomap::testing::CreateTestDir("global_reconstruction_gui_cancel");
+  const std::string project_path = WriteProject(test_dir, fountain_dir);
+  OptionManager options;
+  std::string import_path;
+  ParseGuiArguments(project_path, &options, &import_path);
+  MainWindow window(options);
+  GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
+  window.show();
+
+  QStringList messages;
+  ModalDialogHandler message_boxes([&](QWidget* modal) {
+    if (QMessageBox* box = qobject_cast<QMessageBox*>(modal)) {
+      messages << box->text();
+      box->reject();
+      return true;
+    }
+    return false;
+  });
+
+  ui->RunAction()->trigger();
+  ASSERT_TRUE(ui->IsRunning());
+  ProcessEventsFor(1500);
+  QPushButton* cancel = nullptr;
+  for (QPushButton* button :
+       window.statusBar()->findChildren<QPushButton*>()) {
+    if (button->text() == "Cancel" && button->isVisible()) cancel = button;
+  }
+  ASSERT_NE(cancel, nullptr);
+  if (!ui->IsRunning()) GTEST_SKIP() << "The run finished before cancel";
+  QElapsedTimer cancel_timer;
+  cancel_timer.start();
+  cancel->click();
+  ASSERT_TRUE(WaitUntil([&]() { return !ui->IsRunning(); }, 60000));
+  std::cout << "Cancel took " << cancel_timer.elapsed() << " ms" << std::endl;
+  EXPECT_LT(cancel_timer.elapsed(), 10000) << "Cancel is not prompt";
+  EXPECT_TRUE(ui->LastStatus().cancelled()) << ui->LastStatus().message();
+  EXPECT_EQ(ui->Models().Size(), 0u);
+  EXPECT_TRUE(messages.isEmpty()) << messages.join("\n").toStdString();
+  EXPECT_TRUE(ui->RunAction()->isEnabled());
+}
+
+TEST(GlobalReconstructionGui, ErrorShowsTheCommandLineMessage) {
+  const std::string fountain_dir = FountainDir();
+  if (fountain_dir.empty()) {
+    GTEST_SKIP() << "Shared dataset fountain-P11 not found.";
+  }
+  const std::string test_dir =
+      glomap::testing::CreateTestDir("global_reconstruction_gui_error");
+  const std::string project_path = WriteProject(test_dir, fountain_dir);
+  {
+    // Images and features but no matches.
+    Database database(test_dir + "/database.db");
+    database.ClearMatches();
+    database.ClearTwoViewGeometries();
+  }
+  OptionManager options;
+  std::string import_path;
+  ParseGuiArguments(project_path, &options, &import_path);
+  MainWindow window(options);
+  GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
+  window.show();
+
+  QStringList messages;
+  ModalDialogHandler message_boxes([&](QWidget* modal) {
+    if (QMessageBox* box = qobject_cast<QMessageBox*>(modal)) {
+      messages << box->text();
+      box->accept();
+      return true;
+    }
+    return false;
+  });
+  ui->RunAction()->trigger();
+  ASSERT_TRUE(WaitUntil([&]() { return !ui->IsRunning(); }, 120000));
+  ASSERT_TRUE(WaitUntil([&]() { return !messages.isEmpty(); }, 5000));
+  EXPECT_FALSE(ui->LastStatus().ok());
+  EXPECT_FALSE(ui->LastStatus().cancelled());
+  EXPECT_EQ(messages.front().toStdString(), ui->LastStatus().message());
+  EXPECT_EQ(ui->Models().Size(), 0u);
+  EXPECT_TRUE(ui->RunAction()->isEnabled());
+}
+
+}  // namespace
+}  // namespace colmap
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  QApplication app(argc, argv);
+  return RUN_ALL_TESTS();
+}

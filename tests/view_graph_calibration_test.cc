@@ -1,0 +1,304 @@
+#include "glomap/view_graph_calibration.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "base/pose.h"
+#include "estimators/two_view_geometry.h"
+
+namespace glomap {
+namespace {
+
+struct TrueView {
+  Eigen::Matrix3d R;  // cam_from_world rotation
+  Eigen::Vector3d t;  // cam_from_world translation
+  colmap::camera_t camera_id;
+};
+
+Eigen::Matrix3d CrossMatrix(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v(2), v(1), v(2), 0, -v(0), -v(1), v(0), 0;
+  return m;
+}
+
+Eigen::Matrix3d TrueK(double f, double cx, double cy) {
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
+  K(0, 0) = f;
+  K(1, 1) = f;
+  K(0, 2) = cx;
+  K(1, 2) = cy;
+  return K;
+}
+
+// F = K2^-T [t]x R K1^-1 for cam2_from_cam1 = (R, t).
+Eigen::Matrix3d TrueF(const TrueView& view1, const TrueView& view2,
+                      const Eigen::Matrix3d& K1, const Eigen::Matrix3d& K2) {
+  const Eigen::Matrix3d R = view2.R * view1.R.transpose();
+  const Eigen::Vector3d t = view2.t - R * view1.t;
+  return K2.inverse().transpose() * CrossMatrix(t) * R * K1.inverse();
+}
+
+// Cameras on a ring around the origin, looking roughly at it with random
+// perturbations (exactly intersecting optical axes are the classic
+// degenerate case of focal estimation from F).
+std::vector<TrueView> RandomViews(int num_views, std::mt19937* rng) {
+  std::uniform_real_distribution<double> uniform(-1, 1);
+  std::vector<TrueView> views;
+  for (int i = 0; i < num_views; ++i) {
+    const double angle = 2 * M_PI * i / num_views + 0.2 * uniform(*rng);
+    const Eigen::Vector3d center(6 * std::cos(angle), 1.5 * uniform(*rng),
+                                 6 * std::sin(angle));
+    const Eigen::Vector3d target(uniform(*rng), uniform(*rng), uniform(*rng));
+    const Eigen::Vector3d z = (target - center).normalized();
+    const Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized();
+    const Eigen::Vector3d y = z.cross(x);
+    Eigen::Matrix3d R_world_from_cam;
+    R_world_from_cam << x, y, z;
+    const Eigen::Matrix3d roll =
+        Eigen::AngleAxisd(0.3 * uniform(*rng), Eigen::Vector3d::UnitZ())
+            .toRotationMatrix();
+    TrueView view;
+    view.R = roll * R_world_from_cam.transpose();
+    view.t = -view.R * center;
+    views.push_back(view);
+  }
+  return views;
+}
+
+void AddCamera(colmap::camera_t camera_id, size_t width, size_t height,
+               double initial_focal, bool has_prior,
+               colmap::Reconstruction* reconstruction) {
+  colmap::Camera camera;
+  camera.SetCameraId(camera_id);
+  camera.InitializeWithName("PINHOLE", initial_focal, width, height);
+  camera.SetPriorFocalLength(has_prior);
+  reconstruction->AddCamera(camera);
+}
+
+// Adds the images and all pairs with their ground-truth F.
+void AddViewsAndPairs(const std::vector<TrueView>& views,
+                      const std::vector<double>& true_focals,
+                      colmap::Reconstruction* reconstruction,
+                      ViewGraph* view_graph) {
+  for (size_t i = 0; i < views.size(); ++i) {
+    colmap::Image image;
+    image.SetImageId(i + 1);
+    image.SetCameraId(views[i].camera_id);
+    image.SetName("image" + std::to_string(i + 1));
+    reconstruction->AddImage(image);
+  }
+  auto K_of = [&](size_t i) {
+    const colmap::Camera& camera = reconstruction->Camera(views[i].camera_id);
+    return TrueK(true_focals[views[i].camera_id - 1], camera.PrincipalPointX(),
+                 camera.PrincipalPointY());
+  };
+  for (size_t i = 0; i < views.size(); ++i) {
+    for (size_t j = i + 1; j < views.size(); ++j) {
+      ImagePair pair;
+      pair.image_id1 = i + 1;
+      pair.image_id2 = j + 1;
+      pair.config = colmap::TwoViewGeometry::UNCALIBRATED;
+      pair.F = TrueF(views[i], views[j], K_of(i), K_of(j));
+      view_graph->AddPair(pair);
+    }
+  }
+}
+
+TEST(ViewGraphCalibration, ResidualsVanishOnlyAtTrueFocals) {
+  std::mt19937 rng(1);
+  const std::vector<TrueView> views = RandomViews(6, &rng);
+  const Eigen::Vector2d pp1(500, 380), pp2(810, 590);
+  const double f1 = 900, f2 = 1700;
+  for (size_t i = 0; i + 1 < views.size(); ++i) {
+    const Eigen::Matrix3d F =
+        TrueF(views[i], views[i + 1], TrueK(f1, pp1(0), pp1(1)),
+              TrueK(f2, pp2(0), pp2(1)));
+    Eigen::Vector2d residuals;
+    ASSERT_TRUE(
+        FundamentalMatrixFocalResiduals(F, pp1, pp2, f1, f2, &residuals));
+    EXPECT_LT(residuals.norm(), 1e-6);
+    ASSERT_TRUE(
+        FundamentalMatrixFocalResiduals(F, pp1, pp2, 1.3 * f1, f2, &residuals));
+    EXPECT_GT(residuals.norm(), 1e-2);
+    ASSERT_TRUE(
+        FundamentalMatrixFocalResiduals(F, pp1, pp2, f1, 0.8 * f2, &residuals));
+    EXPECT_GT(residuals.norm(), 1e-2);
+  }
+  Eigen::Vector2d residuals;
+  EXPECT_FALSE(FundamentalMatrixFocalResiduals(Eigen::Matrix3d::Zero(), pp1,
+                                               pp2, f1, f2, &residuals));
+}
+
+TEST(ViewGraphCalibration, RecoversSharedCameraFocal) {
+  std::mt19937 rng(2);
+  std::vector<TrueView> views = RandomViews(8, &rng);
+  for (TrueView& view : views) view.camera_id = 1;
+  colmap::Reconstruction reconstruction;
+  const double true_focal = 1000;
+  AddCamera(1, 1200, 900, 1.2 * 1200, /*has_prior=*/false, &reconstruction);
+  ViewGraph view_graph;
+  AddViewsAndPairs(views, {true_focal}, &reconstruction, &view_graph);
+
+  size_t num_invalidated = 99;
+  const Status status =
+      CalibrateViewGraph(ViewGraphCalibrationOptions(), &reconstruction,
+                         &view_graph, &num_invalidated);
+  ASSERT_TRUE(status.ok()) << status.message();
+  const colmap::Camera& camera = reconstruction.Camera(1);
+  EXPECT_NEAR(camera.FocalLengthX(), true_focal, 0.01 * true_focal);
+  EXPECT_EQ(camera.FocalLengthX(), camera.FocalLengthY());
+  EXPECT_EQ(num_invalidated, 0);
+  EXPECT_EQ(view_graph.NumValidPairs(), view_graph.NumPairs());
+}
+
+TEST(ViewGraphCalibration, RecoversTwoDifferentFocals) {
+  std::mt19937 rng(3);
+  std::vector<TrueView> views = RandomViews(10, &rng);
+  for (size_t i = 0; i < views.size(); ++i) views[i].camera_id = 1 + i % 2;
+  colmap::Reconstruction reconstruction;
+  const std::vector<double> true_focals = {800, 1500};
+  AddCamera(1, 1000, 750, 1.2 * 1000, false, &reconstruction);
+  AddCamera(2, 1600, 1200, 1.2 * 1600, false, &reconstruction);
+  ViewGraph view_graph;
+  AddViewsAndPairs(views, true_focals, &reconstruction, &view_graph);
+
+  const Status status = CalibrateViewGraph(ViewGraphCalibrationOptions(),
+                                           &reconstruction, &view_graph);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_NEAR(reconstruction.Camera(1).MeanFocalLength(), true_focals[0],
+              0.01 * true_focals[0]);
+  EXPECT_NEAR(reconstruction.Camera(2).MeanFocalLength(), true_focals[1],
+              0.01 * true_focals[1]);
+  EXPECT_EQ(view_graph.NumValidPairs(), view_graph.NumPairs());
+}
+
+TEST(ViewGraphCalibration, InvalidatesCorruptedPairs) {
+  std::mt19937 rng(4);
+  std::vector<TrueView> views = RandomViews(10, &rng);
+  for (TrueView& view : views) view.camera_id = 1;
+  colmap::Reconstruction reconstruction;
+  const double true_focal = 1100;
+  AddCamera(1, 1200, 900, 1.2 * 1200, false, &reconstruction);
+  ViewGraph view_graph;
+  AddViewsAndPairs(views, {true_focal}, &reconstruction, &view_graph);
+
+  // Replace the F of every fifth pair by a random rank-2 matrix. Such an F
+  // is generally not an essential matrix for the camera's focal, but the
+  // 2.0 threshold on relative focal^2 errors is loose (and one-sided in
+  // effect: a pair implying a smaller focal has residuals <= 1), so each
+  // pair is checked against the residual definition at the result.
+  std::normal_distribution<double> normal(0, 1);
+  std::vector<colmap::image_pair_t> corrupted_ids;
+  const Eigen::Matrix3d K_inv = TrueK(true_focal, 600, 450).inverse();
+  int k = 0;
+  for (auto& [pair_id, pair] : view_graph.Pairs()) {
+    if (k++ % 5 != 2) continue;
+    Eigen::Matrix3d M;
+    for (int i = 0; i < 9; ++i) M(i) = normal(rng);
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(
+        M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Vector3d sigma = svd.singularValues();
+    sigma(2) = 0;
+    // Random in normalized coordinates, mapped to pixels so that its scale
+    // resembles a real F.
+    pair.F = K_inv.transpose() * svd.matrixU() * sigma.asDiagonal() *
+             svd.matrixV().transpose() * K_inv;
+    corrupted_ids.push_back(pair_id);
+  }
+  ASSERT_EQ(corrupted_ids.size(), 9);
+
+  size_t num_invalidated = 0;
+  const Status status =
+      CalibrateViewGraph(ViewGraphCalibrationOptions(), &reconstruction,
+                         &view_graph, &num_invalidated);
+  ASSERT_TRUE(status.ok()) << status.message();
+  const double focal = reconstruction.Camera(1).MeanFocalLength();
+  EXPECT_NEAR(focal, true_focal, 0.01 * true_focal);
+  size_t num_corrupted_invalidated = 0;
+  const Eigen::Vector2d pp(600, 450);
+  for (const colmap::image_pair_t pair_id : corrupted_ids) {
+    const ImagePair& pair = view_graph.Pairs().at(pair_id);
+    Eigen::Vector2d residuals;
+    ASSERT_TRUE(FundamentalMatrixFocalResiduals(pair.F, pp, pp, focal, focal,
+                                                &residuals));
+    EXPECT_EQ(pair.is_valid, residuals.norm() <= 2.0) << residuals.norm();
+    num_corrupted_invalidated += pair.is_valid ? 0 : 1;
+  }
+  std::cout << num_corrupted_invalidated << " of " << corrupted_ids.size()
+            << " corrupted pairs invalidated" << std::endl;
+  EXPECT_GE(num_corrupted_invalidated, 3);
+  // No correct pair is lost.
+  EXPECT_EQ(num_invalidated, num_corrupted_invalidated);
+  EXPECT_EQ(view_graph.NumValidPairs(),
+            view_graph.NumPairs() - num_corrupted_invalidated);
+}
+
+TEST(ViewGraphCalibration, CamerasWithPriorsStayConstant) {
+  std::mt19937 rng(5);
+  std::vector<TrueView> views = RandomViews(10, &rng);
+  for (size_t i = 0; i < views.size(); ++i) views[i].camera_id = 1 + i % 2;
+  colmap::Reconstruction reconstruction;
+  // Camera 1 has a (slightly wrong) prior that must not move; camera 2 is
+  // free and is recovered from the pairs with camera 1 and with itself.
+  AddCamera(1, 1000, 750, 820, /*has_prior=*/true, &reconstruction);
+  AddCamera(2, 1600, 1200, 1.2 * 1600, false, &reconstruction);
+  const std::vector<double> params_before = reconstruction.Camera(1).Params();
+  ViewGraph view_graph;
+  AddViewsAndPairs(views, {800, 1500}, &reconstruction, &view_graph);
+
+  const Status status = CalibrateViewGraph(ViewGraphCalibrationOptions(),
+                                           &reconstruction, &view_graph);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(reconstruction.Camera(1).Params(), params_before);
+  EXPECT_NEAR(reconstruction.Camera(2).MeanFocalLength(), 1500, 0.02 * 1500);
+}
+
+TEST(ViewGraphCalibration, NoFreeCameraChangesNothing) {
+  std::mt19937 rng(6);
+  std::vector<TrueView> views = RandomViews(5, &rng);
+  for (TrueView& view : views) view.camera_id = 1;
+  colmap::Reconstruction reconstruction;
+  AddCamera(1, 1200, 900, 1300, /*has_prior=*/true, &reconstruction);
+  ViewGraph view_graph;
+  AddViewsAndPairs(views, {1000}, &reconstruction, &view_graph);
+  // A broken pair must not crash anything either.
+  view_graph.Pairs().begin()->second.F.setZero();
+  size_t num_invalidated = 99;
+  const Status status =
+      CalibrateViewGraph(ViewGraphCalibrationOptions(), &reconstruction,
+                         &view_graph, &num_invalidated);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(reconstruction.Camera(1).MeanFocalLength(), 1300);
+  EXPECT_EQ(num_invalidated, 0);
+  EXPECT_EQ(view_graph.NumValidPairs(), view_graph.NumPairs());
+}
+
+TEST(ViewGraphCalibration, DegenerateInputsDoNotCrash) {
+  std::mt19937 rng(7);
+  std::vector<TrueView> views = RandomViews(4, &rng);
+  for (TrueView& view : views) view.camera_id = 1;
+  colmap::Reconstruction reconstruction;
+  AddCamera(1, 1200, 900, 1440, false, &reconstruction);
+  ViewGraph view_graph;
+  AddViewsAndPairs(views, {1000}, &reconstruction, &view_graph);
+  auto it = view_graph.Pairs().begin();
+  (it++)->second.F.setZero();
+  (it++)->second.F = Eigen::Matrix3d::Constant(NAN);
+  it->second.F = Eigen::Vector3d(1, 2, 3) * Eigen::RowVector3d(4, 5, 6);
+  const Status status = CalibrateViewGraph(ViewGraphCalibrationOptions(),
+                                           &reconstruction, &view_graph);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_TRUE(std::isfinite(reconstruction.Camera(1).MeanFocalLength()));
+
+  ViewGraphCalibrationOptions bad_options;
+  bad_options.max_focal_ratio = 0.05;
+  EXPECT_FALSE(
+      CalibrateViewGraph(bad_options, &reconstruction, &view_graph).ok());
+}
+
+}  // namespace
+}  // namespace glomap
