@@ -42,6 +42,10 @@ MAPPERS = {
     "global": "global_mapper",
     "incremental": "mapper",
 }
+# Bar colours of the global mapper's stages in the runtime plot.
+STAGE_COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+                "#8c564b", "#e377c2", "#bcbd22", "#17becf", "#393b79",
+                "#637939", "#843c39"]
 # The README section that --readme replaces.
 README_BEGIN = "<!-- benchmark:begin -->"
 README_END = "<!-- benchmark:end -->"
@@ -255,7 +259,10 @@ def run_one(args, dataset, mapper, index, total):
     if timed_out:
         record["status"] = "failed: timeout after %d s" % args.timeout
     elif code != 0:
-        record["status"] = "failed: exit %d" % code
+        # COLMAP 3.8's mapper exits with an error when it finds no model.
+        no_model = pick_model(args.colmap, output_path)[0] is None
+        record["status"] = "failed: %sexit %d" % (
+            "no model, " if no_model else "", code)
         record["error"] = last_lines(log_path)
     else:
         model_path, analysis = pick_model(args.colmap, output_path)
@@ -382,7 +389,7 @@ def write_plots(records, output_dir):
         return []
     written = []
     stage_names = stage_order(records)
-    columns = stage_names + ["other", "incremental"]
+    columns = stage_names + ["other", "COLMAP 3.8 mapper (total)"]
 
     # Runtime: one stacked bar per run (stages of ours, total of the stock
     # mapper).
@@ -427,8 +434,12 @@ def write_plots(records, output_dir):
             "set xtics rotate by -35 left",
             "set grid ytics",
             "set yrange [0:*]",
-            "plot for [col=2:%d] '%s' using col:xtic(1) title columnheader"
-            % (len(columns) + 1, data_path),
+            # Distinct colours for the stages, grey for the stock mapper.
+            "colors = '%s'" % " ".join(
+                [STAGE_COLORS[k % len(STAGE_COLORS)]
+                 for k in range(len(columns) - 1)] + ["#999999"]),
+            "plot for [col=2:%d] '%s' using col:xtic(1) title columnheader "
+            "lc rgb word(colors, col - 1)" % (len(columns) + 1, data_path),
         ])
         if run_gnuplot(gnuplot, script, png):
             written.append(png)

@@ -5,6 +5,8 @@
 #include <Eigen/Geometry>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <ctime>
 #include <random>
 #include <set>
 #include <utility>
@@ -390,6 +392,63 @@ TEST(GlobalBundleAdjustment, FiftyImagesIsFast) {
   EXPECT_GT(observations_per_image, 800);
   EXPECT_LT(seconds, 30.0);  // Generous for a loaded CI machine.
   EXPECT_LT(Median(ReprojectionErrors(reconstruction)), 0.8);
+}
+
+}  // namespace
+}  // namespace glomap
+
+namespace glomap {
+namespace {
+
+// Development benchmark on a real model (e.g. the mapper's output with
+// bundle adjustment skipped): GLOMAP_BA_MODEL=<model dir>, optional
+// GLOMAP_BA_GT=<ground-truth model dir>. Skipped otherwise.
+TEST(GlobalBundleAdjustment, RealModelBenchmark) {
+  const char* model_path = std::getenv("GLOMAP_BA_MODEL");
+  if (model_path == nullptr) GTEST_SKIP();
+  colmap::Reconstruction reconstruction;
+  reconstruction.Read(model_path);
+  GlobalBundleAdjustmentOptions options;
+  if (const char* tol = std::getenv("GLOMAP_BA_TOL")) {
+    options.function_tolerance = std::atof(tol);
+  }
+  if (const char* iters = std::getenv("GLOMAP_BA_ITERS")) {
+    options.max_num_iterations = std::atoi(iters);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const auto cpu_start = std::clock();
+  ASSERT_TRUE(RunGlobalBundleAdjustment(options, &reconstruction).ok());
+  std::cout << "BA: "
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                             start)
+                   .count()
+            << " s wall, "
+            << static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC
+            << " s cpu, median reprojection error "
+            << Median(ReprojectionErrors(reconstruction)) << " px" << std::endl;
+  if (const char* gt_path = std::getenv("GLOMAP_BA_GT")) {
+    colmap::Reconstruction gt;
+    gt.Read(gt_path);
+    std::vector<Eigen::Vector3d> src, dst;
+    for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
+      const colmap::Image* gt_image =
+          gt.FindImageWithName(reconstruction.Image(image_id).Name());
+      if (gt_image == nullptr) continue;
+      src.push_back(reconstruction.Image(image_id).ProjectionCenter());
+      dst.push_back(gt_image->ProjectionCenter());
+    }
+    Eigen::Matrix3Xd src_mat(3, src.size()), dst_mat(3, dst.size());
+    for (size_t i = 0; i < src.size(); ++i) {
+      src_mat.col(i) = src[i];
+      dst_mat.col(i) = dst[i];
+    }
+    const Eigen::Matrix4d transform = Eigen::umeyama(src_mat, dst_mat, true);
+    double sum = 0;
+    for (size_t i = 0; i < src.size(); ++i) {
+      sum += ((transform * src[i].homogeneous()).head<3>() - dst[i]).norm();
+    }
+    std::cout << "mean position error " << sum / src.size() << std::endl;
+  }
 }
 
 }  // namespace

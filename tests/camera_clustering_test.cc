@@ -160,7 +160,7 @@ TEST(CameraClustering, MergesClustersLinkedByTwoModerateEdges) {
   EXPECT_EQ(ClusterCameras(no_merge, TwoCliques({80, 80})).size(), 2u);
 }
 
-TEST(CameraClusteringTest, OrderAndMinClusterSize) {
+TEST(CameraClustering, OrderAndMinClusterSize) {
   SceneBuilder builder({1, 2, 3, 10, 11, 12, 13, 20});
   for (const ImageIds& group : {ImageIds{10, 11, 12, 13}, ImageIds{1, 2, 3}}) {
     for (size_t i = 0; i < group.size(); ++i) {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <random>
 #include <vector>
 
@@ -203,6 +204,16 @@ TEST(GlobalPositioning, ForwardMotion) {
   std::cout << "  relative centre error " << error << std::endl;
   // 39 m of driving: 1e-3 of the extent is ~4 cm before bundle adjustment.
   EXPECT_LT(error, 1e-3);
+}
+
+// Timing on a longer drive (run with --gtest_also_run_disabled_tests).
+TEST(GlobalPositioning, DISABLED_LongForwardMotionBenchmark) {
+  const char* num_images = std::getenv("GP_BENCHMARK_NUM_IMAGES");
+  const int n = num_images ? std::atoi(num_images) : 200;
+  Scene scene = MakeForwardScene(n, 40 * n, 0.5);
+  ASSERT_TRUE(Solve(&scene).ok());
+  const double error = RelativeCenterError(scene);
+  std::cout << "  relative centre error " << error << std::endl;
 }
 
 TEST(GlobalPositioning, Deterministic) {

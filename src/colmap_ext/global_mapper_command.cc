@@ -135,8 +135,15 @@ int RunGlobalMapper(int argc, char** argv) {
     options.AddDatabaseOptions();
     options.AddImageOptions();
   }
-  options.AddRequiredOption("output_path", &output_path,
-                            "Folder for the models (created if missing)");
+  if (has_project) {
+    // Values on the command line are not parsed next to a project file, so
+    // the output path cannot be required there; it is taken from argv below.
+    options.AddDefaultOption("output_path", &output_path,
+                             "Folder for the models (created if missing)");
+  } else {
+    options.AddRequiredOption("output_path", &output_path,
+                              "Folder for the models (created if missing)");
+  }
   options.AddDefaultOption("image_list_path", &image_list_path,
                            "Optional file with one image name per line: "
                            "reconstruct only these images");
@@ -170,7 +177,7 @@ int RunGlobalMapper(int argc, char** argv) {
   }
   mapper_options.image_path = *options.image_path;
   if (!mapper_options.Check()) {
-    return Fail("Invalid GlobalMapper.* options (see the line above).");
+    return EXIT_FAILURE;  // Check() said which option is wrong.
   }
   {
     const std::string error = PrepareOutputPath(output_path);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <iostream>
 #include <memory>
 #include <set>
@@ -103,6 +104,9 @@ colmap::BundleAdjustmentOptions ColmapOptions(
   ba_options.solver_options.function_tolerance = options.function_tolerance;
   ba_options.solver_options.num_threads =
       colmap::GetEffectiveNumThreads(options.num_threads);
+  // Progress goes through our own round summary; Ceres' per-iteration log
+  // (glog, at the GUI's verbosity) would flood the output.
+  ba_options.solver_options.logging_type = ceres::SILENT;
   ba_options.solver_options.callbacks.push_back(callback);
   return ba_options;
 }
@@ -126,10 +130,53 @@ std::vector<int> ConstantCameraParams(
   return constant_params;
 }
 
+// Reprojection error with the world-to-camera rotation held fixed, on the
+// parameter blocks (tvec, point, camera params). Same model as COLMAP's
+// BundleAdjustmentCostFunction, without the quaternion block: the solve
+// needs no derivatives for it, which saves about a third of the Jacobian
+// work of this stage.
+template <typename CameraModel>
+class FixedRotationCostFunction {
+ public:
+  FixedRotationCostFunction(const Eigen::Matrix3d& rotation,
+                            const Eigen::Vector2d& point2D)
+      : rotation_(rotation), observed_x_(point2D(0)), observed_y_(point2D(1)) {}
+
+  static ceres::CostFunction* Create(const Eigen::Matrix3d& rotation,
+                                     const Eigen::Vector2d& point2D) {
+    return new ceres::AutoDiffCostFunction<FixedRotationCostFunction, 2, 3, 3,
+                                           CameraModel::kNumParams>(
+        new FixedRotationCostFunction(rotation, point2D));
+  }
+
+  template <typename T>
+  bool operator()(const T* const tvec, const T* const point3D,
+                  const T* const camera_params, T* residuals) const {
+    T point_in_cam[3];
+    for (int r = 0; r < 3; ++r) {
+      point_in_cam[r] = T(rotation_(r, 0)) * point3D[0] +
+                        T(rotation_(r, 1)) * point3D[1] +
+                        T(rotation_(r, 2)) * point3D[2] + tvec[r];
+    }
+    CameraModel::WorldToImage(camera_params, point_in_cam[0] / point_in_cam[2],
+                              point_in_cam[1] / point_in_cam[2], &residuals[0],
+                              &residuals[1]);
+    residuals[0] -= T(observed_x_);
+    residuals[1] -= T(observed_y_);
+    return true;
+  }
+
+ private:
+  const Eigen::Matrix3d rotation_;
+  // Plain doubles: a Vector2d member would need aligned allocation.
+  const double observed_x_;
+  const double observed_y_;
+};
+
 // COLMAP 3.8's BundleAdjustmentConfig can hold a whole pose constant but not
 // the rotation alone, so the rotation-fixed solve builds its own Ceres problem
-// from COLMAP's reprojection cost (base/cost_functions.h) with every qvec
-// block constant. Everything else (loss, solver type, threading) follows
+// in which rotations are not parameters at all. Everything else (loss,
+// parameterization of intrinsics, solver type, threading) follows
 // colmap::BundleAdjuster so that both stages behave alike.
 Status SolveWithFixedRotations(
     const colmap::BundleAdjustmentOptions& ba_options,
@@ -145,28 +192,25 @@ Status SolveWithFixedRotations(
   for (const colmap::image_t image_id : image_ids) {
     colmap::Image& image = reconstruction->Image(image_id);
     colmap::Camera& camera = reconstruction->Camera(image.CameraId());
-    image.NormalizeQvec();  // The cost assumes unit quaternions.
-    double* qvec_data = image.Qvec().data();
+    image.NormalizeQvec();
+    const Eigen::Matrix3d rotation = image.RotationMatrix();
     double* tvec_data = image.Tvec().data();
     for (const colmap::Point2D& point2D : image.Points2D()) {
       if (!point2D.HasPoint3D()) continue;
       colmap::Point3D& point3D = reconstruction->Point3D(point2D.Point3DId());
       ceres::CostFunction* cost_function = nullptr;
       switch (camera.ModelId()) {
-#define CAMERA_MODEL_CASE(CameraModel)                                     \
-  case colmap::CameraModel::kModelId:                                      \
-    cost_function =                                                        \
-        colmap::BundleAdjustmentCostFunction<colmap::CameraModel>::Create( \
-            point2D.XY());                                                 \
+#define CAMERA_MODEL_CASE(CameraModel)                                      \
+  case colmap::CameraModel::kModelId:                                       \
+    cost_function = FixedRotationCostFunction<colmap::CameraModel>::Create( \
+        rotation, point2D.XY());                                            \
     break;
         CAMERA_MODEL_SWITCH_CASES
 #undef CAMERA_MODEL_CASE
       }
-      problem.AddResidualBlock(cost_function, loss_function.get(), qvec_data,
-                               tvec_data, point3D.XYZ().data(),
-                               camera.ParamsData());
+      problem.AddResidualBlock(cost_function, loss_function.get(), tvec_data,
+                               point3D.XYZ().data(), camera.ParamsData());
     }
-    problem.SetParameterBlockConstant(qvec_data);
     camera_ids.insert(image.CameraId());
   }
   if (problem.NumResiduals() == 0) {
@@ -213,7 +257,7 @@ Status SolveWithFixedRotations(
   }
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
-  *num_iterations = static_cast<int>(summary.iterations.size());
+  *num_iterations = static_cast<int>(summary.iterations.size()); if (getenv("BA_DEBUG")) std::cout << summary.FullReport() << std::endl;
   if (summary.termination_type == ceres::FAILURE) {
     return Status::Error("Bundle adjustment with fixed rotations failed: " +
                          summary.message);
@@ -236,7 +280,7 @@ Status SolveJoint(const colmap::BundleAdjustmentOptions& ba_options,
     return Status::Error("Bundle adjustment has no observations.");
   }
   const ceres::Solver::Summary& summary = bundle_adjuster.Summary();
-  *num_iterations = static_cast<int>(summary.iterations.size());
+  *num_iterations = static_cast<int>(summary.iterations.size()); if (getenv("BA_DEBUG")) std::cout << summary.FullReport() << std::endl;
   if (summary.termination_type == ceres::FAILURE) {
     return Status::Error("Joint bundle adjustment failed: " + summary.message);
   }

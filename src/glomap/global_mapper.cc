@@ -54,11 +54,27 @@ std::string Counts(std::initializer_list<std::pair<const char*, size_t>> kv) {
 }  // namespace
 
 bool GlobalMapperOptions::Check() const {
-  return database.Check() && view_graph_calibration.Check() &&
-         relative_pose.Check() && rotation_averaging.Check() &&
-         tracks.Check() && global_positioning.Check() &&
-         bundle_adjustment.Check() && retriangulation.Check() &&
-         clustering.Check() && min_model_size >= 2;
+  // Name the group that is wrong, so the user knows which option to fix.
+  const std::pair<const char*, bool> checks[] = {
+      {"database", database.Check()},
+      {"view graph calibration (vgc_*)", view_graph_calibration.Check()},
+      {"relative pose (rp_*)", relative_pose.Check()},
+      {"rotation averaging (ra_*)", rotation_averaging.Check()},
+      {"tracks (track_*)", tracks.Check()},
+      {"global positioning (gp_*)", global_positioning.Check()},
+      {"bundle adjustment (ba_*)", bundle_adjustment.Check()},
+      {"retriangulation (tri_*)", retriangulation.Check()},
+      {"camera clustering (cc_*)", clustering.Check()},
+      {"min_model_size (at least 2)", min_model_size >= 2},
+      {"num_threads (-1 or positive)", num_threads == -1 || num_threads > 0},
+  };
+  for (const auto& [name, ok] : checks) {
+    if (!ok) {
+      LOG(ERROR) << "Invalid GlobalMapper option value in: " << name;
+      return false;
+    }
+  }
+  return true;
 }
 
 GlobalMapper::GlobalMapper(GlobalMapperOptions options)

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <memory>
 #include <unordered_map>
@@ -83,6 +84,67 @@ double SquaredSampsonError(const Eigen::Matrix3d& E, const Eigen::Vector3d& x1,
   return x2tEx1 * x2tEx1 / denominator;
 }
 
+// Depths along ray1 (camera 1) and ray2 (camera 2) of the point where the
+// two rays of a correspondence come closest, for cam2_from_cam1 = (R, t);
+// returns false when the rays' parallax is too small for a meaningful depth.
+bool TwoRayDepths(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                  const Eigen::Vector3d& ray1, const Eigen::Vector3d& ray2,
+                  double min_sin_sq_parallax, double* depth1, double* depth2) {
+  // Camera 1's frame: ray1 from the origin, ray2 from camera 2's centre.
+  const Eigen::Vector3d ray2_in_cam1 = R.transpose() * ray2;
+  const Eigen::Vector3d center2_in_cam1 = -R.transpose() * t;
+  const double a = ray1.squaredNorm();
+  const double b = ray1.dot(ray2_in_cam1);
+  const double c = ray2_in_cam1.squaredNorm();
+  const double sin_sq_parallax = 1.0 - b * b / (a * c);
+  if (!(sin_sq_parallax > min_sin_sq_parallax)) {
+    return false;
+  }
+  // Normal equations of min |d1 ray1 - center2 - d2 ray2|^2.
+  const double e = ray1.dot(center2_in_cam1);
+  const double g = ray2_in_cam1.dot(center2_in_cam1);
+  const double det = b * b - a * c;  // < 0 for non-parallel rays.
+  *depth1 = (b * g - c * e) / det;
+  *depth2 = (a * g - b * e) / det;
+  return true;
+}
+
+// Picks the decomposition of E with the most correspondences in front of
+// both cameras: colmap::PoseFromEssentialMatrix's criterion, but with
+// closed-form two-ray depths instead of an SVD triangulation per point and
+// candidate, which took half of this stage's run time.
+bool PoseFromEssentialMatrixFast(const Eigen::Matrix3d& E,
+                                 const std::vector<Eigen::Vector2d>& points1,
+                                 const std::vector<Eigen::Vector2d>& points2,
+                                 Eigen::Matrix3d* R, Eigen::Vector3d* t) {
+  Eigen::Matrix3d R1, R2;
+  Eigen::Vector3d t1;
+  colmap::DecomposeEssentialMatrix(E, &R1, &R2, &t1);
+  if (!R1.allFinite() || !R2.allFinite() || !t1.allFinite()) {
+    return false;
+  }
+  const std::array<std::pair<Eigen::Matrix3d, Eigen::Vector3d>, 4> candidates =
+      {{{R1, t1}, {R2, t1}, {R1, -t1}, {R2, -t1}}};
+  int best_num_in_front = 0;
+  for (const auto& [candidate_R, candidate_t] : candidates) {
+    int num_in_front = 0;
+    for (size_t i = 0; i < points1.size(); ++i) {
+      double depth1 = 0, depth2 = 0;
+      if (TwoRayDepths(candidate_R, candidate_t, points1[i].homogeneous(),
+                       points2[i].homogeneous(), 1e-12, &depth1, &depth2) &&
+          depth1 > 0 && depth2 > 0) {
+        ++num_in_front;
+      }
+    }
+    if (num_in_front > best_num_in_front) {
+      best_num_in_front = num_in_front;
+      *R = candidate_R;
+      *t = candidate_t;
+    }
+  }
+  return best_num_in_front > 0;
+}
+
 // Everything one pair's worker needs, gathered before the parallel section.
 struct PairTask {
   colmap::image_pair_t pair_id = 0;
@@ -104,7 +166,10 @@ void RefinePose(const RelativePoseOptions& options,
   Eigen::Vector3d refined_tvec = *tvec;
   ceres::Problem problem;
   ceres::LossFunction* loss = new ceres::CauchyLoss(loss_scale);
-  for (size_t i = 0; i < inliers1.size(); ++i) {
+  const size_t num_points =
+      std::min<size_t>(inliers1.size(), options.max_num_refinement_points);
+  for (size_t k = 0; k < num_points; ++k) {
+    const size_t i = k * inliers1.size() / num_points;
     problem.AddResidualBlock(SampsonErrorCost::Create(inliers1[i], inliers2[i]),
                              loss, refined_qvec.data(), refined_tvec.data());
   }
@@ -205,10 +270,8 @@ bool ProcessPair(const RelativePoseOptions& options, const PairTask& task) {
   }
   Eigen::Matrix3d R;
   Eigen::Vector3d t;
-  std::vector<Eigen::Vector3d> points3D;
-  colmap::PoseFromEssentialMatrix(report.model, inliers1, inliers2, &R, &t,
-                                  &points3D);
-  if (points3D.empty() || !R.allFinite() || !t.allFinite() || !(t.norm() > 0)) {
+  if (!PoseFromEssentialMatrixFast(report.model, inliers1, inliers2, &R, &t) ||
+      !(t.norm() > 0)) {
     return false;
   }
   Eigen::Vector4d qvec = colmap::RotationMatrixToQuaternion(R);
@@ -272,20 +335,12 @@ bool ProcessPair(const RelativePoseOptions& options, const PairTask& task) {
     // Cheirality: the two rays (in camera 1's frame) must meet in front of
     // both cameras. Below the measurement accuracy in parallax the depth
     // sign is noise (points near infinity), so such matches are kept.
-    const Eigen::Vector3d ray2_in_cam1 = R.transpose() * ray2;
-    const double a = ray1.squaredNorm();
-    const double b = ray1.dot(ray2_in_cam1);
-    const double c = ray2_in_cam1.squaredNorm();
-    const double sin_sq_parallax = 1.0 - b * b / (a * c);
-    if (sin_sq_parallax > epipolar_threshold * epipolar_threshold) {
-      const double e = ray1.dot(center2_in_cam1);
-      const double g = ray2_in_cam1.dot(center2_in_cam1);
-      const double det = b * b - a * c;  // < 0 for non-parallel rays.
-      const double depth1 = (b * g - c * e) / det;
-      const double depth2 = (a * g - b * e) / det;
-      if (!(depth1 > 0) || !(depth2 > 0)) {
-        continue;
-      }
+    double depth1 = 0, depth2 = 0;
+    if (TwoRayDepths(R, tvec, ray1, ray2,
+                     epipolar_threshold * epipolar_threshold, &depth1,
+                     &depth2) &&
+        (!(depth1 > 0) || !(depth2 > 0))) {
+      continue;
     }
     pair.inlier_idxs.push_back(match_idxs[k]);
   }
@@ -305,10 +360,11 @@ bool RelativePoseOptions::Check() const {
   return max_epipolar_error_px > 0 && max_num_trials >= 1 &&
          min_num_trials >= 0 && min_num_trials <= max_num_trials &&
          confidence > 0 && confidence <= 1 &&
-         max_num_refinement_iterations >= 0 && max_epipolar_error_E_px > 0 &&
-         max_epipolar_error_F_px > 0 && max_epipolar_error_H_px > 0 &&
-         min_epipole_angle_deg >= 0 && min_epipole_angle_deg < 90 &&
-         min_num_inliers >= 0 && min_inlier_ratio >= 0 && min_inlier_ratio <= 1;
+         max_num_refinement_iterations >= 0 && max_num_refinement_points >= 5 &&
+         max_epipolar_error_E_px > 0 && max_epipolar_error_F_px > 0 &&
+         max_epipolar_error_H_px > 0 && min_epipole_angle_deg >= 0 &&
+         min_epipole_angle_deg < 90 && min_num_inliers >= 0 &&
+         min_inlier_ratio >= 0 && min_inlier_ratio <= 1;
 }
 
 Status EstimateRelativePoses(const RelativePoseOptions& options,

@@ -30,6 +30,10 @@ struct RelativePoseOptions {
   double confidence = 0.9999;
   // Gauss-Newton/LM iterations of the pose refinement on RANSAC inliers.
   int max_num_refinement_iterations = 20;
+  // The refinement uses at most this many RANSAC inliers, evenly spread over
+  // the matches: its cost is linear in them, its accuracy gain beyond a few
+  // hundred is negligible next to the rotation averaging's tolerances.
+  int max_num_refinement_points = 500;
 
   // Re-scoring threshold on the Sampson error for CALIBRATED pairs, pixels.
   double max_epipolar_error_E_px = 1.0;

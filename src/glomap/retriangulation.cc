@@ -199,6 +199,7 @@ Status Retriangulate(const RetriangulationOptions& options,
   ba_options.solver_options.gradient_tolerance = 1.0;  // COLMAP's global BA.
   ba_options.solver_options.num_threads =
       colmap::GetEffectiveNumThreads(options.bundle_adjustment.num_threads);
+  ba_options.solver_options.logging_type = ceres::SILENT;
   ba_options.solver_options.callbacks.push_back(&callback);
   colmap::BundleAdjustmentConfig ba_config;
   for (const colmap::image_t image_id : triangulated_ids) {

@@ -345,22 +345,19 @@ Status SolveRotations(const RotationAveragingOptions& options,
     for (int iteration = 0; iteration < options.max_num_l1_iterations;
          ++iteration) {
       compute_residuals();
-      // Later outer iterations start closer and get more inner iterations.
-      static const int kBase =
-          getenv("RA_BASE") ? atoi(getenv("RA_BASE")) : 100;
-      static const int kCap = getenv("RA_CAP") ? atoi(getenv("RA_CAP")) : 1000;
-      const int max_inner = std::min(kBase << iteration, kCap);
+      // The ADMM solve need not be exact: relinearizing matters more than
+      // inner accuracy, so inner iterations start at 10 and double (capped
+      // at 100), as in the reference.
+      const int max_inner = std::min(10 << iteration, 100);
       int num_inner = 0;
       if (!SolveGroupL1(edges, residuals, num_nodes, max_inner, &solver,
                         &update, &num_inner)) {
         return Status::Error("Rotation averaging: L1 solve failed.");
       }
       const double mean_step = ApplyUpdate(update, rotations);
-      compute_residuals();
       VLOG(1) << "Rotation averaging L1 iteration " << iteration
-              << ": mean step " << mean_step * kRadToDeg << " deg, inner "
-              << num_inner << " mean residual "
-              << residuals.rowwise().norm().mean() * kRadToDeg;
+              << ": mean step " << mean_step * kRadToDeg << " deg, "
+              << num_inner << " ADMM iterations";
       if (mean_step < options.l1_step_convergence_threshold_rad) break;
     }
   }
@@ -391,10 +388,7 @@ Status SolveRotations(const RotationAveragingOptions& options,
     const double mean_step = ApplyUpdate(update, rotations);
     VLOG(1) << "Rotation averaging IRLS iteration " << iteration
             << ": mean step " << mean_step * kRadToDeg << " deg";
-    static const double kThr =
-        getenv("RA_THR") ? atof(getenv("RA_THR"))
-                         : options.irls_step_convergence_threshold_rad;
-    if (mean_step < kThr) break;
+    if (mean_step < options.irls_step_convergence_threshold_rad) break;
   }
   return Status::Ok();
 }
@@ -525,6 +519,7 @@ Status AverageRotations(const RotationAveragingOptions& options,
   std::vector<colmap::image_t> component;
   std::vector<Eigen::Quaterniond> rotations;
   Problem problem;
+  // Rotations of the last solved round, by image id.
   std::unordered_map<colmap::image_t, Eigen::Quaterniond> previous_by_id;
   for (int round = 0; round < options.num_rounds; ++round) {
     component = LargestUsableComponent(*view_graph);
@@ -534,14 +529,16 @@ Status AverageRotations(const RotationAveragingOptions& options,
           "relative rotations.");
     }
     problem = BuildProblem(*view_graph, component);
-    static const bool kWarm = getenv("RA_WARM") != nullptr;
-    if (round == 0 || !kWarm) {
+    // Later rounds start from the previous solution rather than from a new
+    // spanning tree (the reference re-initializes): it is already in the
+    // inliers' basin and closer than any chain of noisy measurements.
+    if (round == 0) {
       rotations = InitializeFromSpanningTree(problem);
     } else {
-      std::vector<Eigen::Quaterniond> previous = rotations;
       rotations.clear();
-      for (colmap::image_t id : component)
-        rotations.push_back(previous_by_id.at(id));
+      for (const colmap::image_t image_id : component) {
+        rotations.push_back(previous_by_id.at(image_id));
+      }
     }
     const Status status = SolveRotations(options, problem, &rotations);
     if (!status.ok()) return status;
@@ -567,8 +564,9 @@ Status AverageRotations(const RotationAveragingOptions& options,
     }
     CHECK_EQ(e, problem.edges.size());
     previous_by_id.clear();
-    for (size_t i = 0; i < component.size(); ++i)
-      previous_by_id[component[i]] = rotations[i];
+    for (size_t i = 0; i < component.size(); ++i) {
+      previous_by_id.emplace(component[i], rotations[i]);
+    }
     num_rejected += num_rejected_in_round;
     VLOG(1) << "Rotation averaging round " << round << ": " << component.size()
             << " images, " << problem.edges.size() << " pairs, "
@@ -583,14 +581,10 @@ Status AverageRotations(const RotationAveragingOptions& options,
         "Rotation averaging: fewer than two images remain after rejecting "
         "inconsistent pairs.");
   }
-  std::unordered_map<colmap::image_t, Eigen::Quaterniond> rotation_by_id;
-  for (size_t i = 0; i < component.size(); ++i) {
-    rotation_by_id.emplace(component[i], rotations[i]);
-  }
   // Re-anchor the gauge at the smallest id of the final component (only
   // changes anything if the previous gauge image was split off).
   const Eigen::Quaterniond world_correction =
-      rotation_by_id.at(final_component.front()).conjugate();
+      previous_by_id.at(final_component.front()).conjugate();
   std::unordered_set<colmap::image_t> final_set(final_component.begin(),
                                                 final_component.end());
 
@@ -608,7 +602,7 @@ Status AverageRotations(const RotationAveragingOptions& options,
       continue;
     }
     const Eigen::Quaterniond rotation =
-        (rotation_by_id.at(image_id) * world_correction).normalized();
+        (previous_by_id.at(image_id) * world_correction).normalized();
     colmap::Image& image = reconstruction->Image(image_id);
     image.SetQvec(Eigen::Vector4d(rotation.w(), rotation.x(), rotation.y(),
                                   rotation.z()));

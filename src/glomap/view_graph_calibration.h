@@ -26,7 +26,8 @@ struct ViewGraphCalibrationOptions {
   // Pairs whose unrobustified residual norm (relative focal^2 errors) exceeds
   // this after the solve are invalidated.
   double max_two_view_error = 2.0;
-  // Scale of the Cauchy loss on the relative focal^2 residuals.
+  // Scale of the Cauchy loss on the relative focal^2 residuals (final solve;
+  // a first solve uses max(0.5, this) to leave the loss' flat tail).
   double loss_scale = 0.01;
   // Maximum number of Ceres iterations.
   int max_num_iterations = 100;

@@ -281,16 +281,20 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
   const std::string export_dir = test_dir + "/export";
   fs::create_directories(export_dir);
   ModalDialogHandler file_dialogs([&](QWidget* modal) {
+    fprintf(stderr, "modal: %s\n", modal->metaObject()->className());
     if (QFileDialog* dialog = qobject_cast<QFileDialog*>(modal)) {
       dialog->setDirectory(QString::fromStdString(export_dir));
       dialog->selectFile(QString::fromStdString(export_dir));
-      static_cast<QDialog*>(dialog)->accept();  // QFileDialog::accept()
+      // Public in QDialog, virtual: runs QFileDialog::accept().
+      static_cast<QDialog*>(dialog)->accept();
       return true;
     }
     return false;
   });
   QAction* export_action = FindMenuAction(&window, "File", "Export model");
   ASSERT_NE(export_action, nullptr);
+  fprintf(stderr, "export enabled %d\n", export_action->isEnabled());
+  QTimer::singleShot(1000, [](){ for (QWidget* w : QApplication::topLevelWidgets()) if (w->isVisible()) fprintf(stderr, "top: %s %s\n", w->metaObject()->className(), w->windowTitle().toStdString().c_str()); });
   export_action->trigger();
   ASSERT_TRUE(WaitUntil(
       [&]() { return fs::exists(export_dir + "/points3D.bin"); }, 60000));
@@ -393,6 +397,9 @@ TEST(GlobalReconstructionGui, ErrorShowsTheCommandLineMessage) {
 
 int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);
+  // COLMAP's icons and shaders live in a static library's resource object,
+  // which `colmap` itself registers the same way (src/exe/colmap.cc).
+  Q_INIT_RESOURCE(resources);
   QApplication app(argc, argv);
   return RUN_ALL_TESTS();
 }

@@ -32,7 +32,7 @@ std::string CreateTestDir(const std::string& name) {
 }
 
 int RunCommand(const std::string& command, std::string* output) {
-  const std::string full = command + " 2>&1";
+  const std::string full = "( " + command + " ) 2>&1";
   FILE* pipe = popen(full.c_str(), "r");
   if (pipe == nullptr) return -1;
   std::array<char, 4096> buffer;

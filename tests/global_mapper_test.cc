@@ -1,0 +1,189 @@
+// The whole pipeline, end to end: synthetic scenes with known answers, and
+// real datasets of ../shared/datasets against the reference mappers' figures
+// in each dataset's README.
+#include "glomap/global_mapper.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "base/pose.h"
+#include "glomap/model_evaluation.h"
+#include "glomap/synthetic_scene.h"
+#include "tests/support/test_paths.h"
+
+namespace glomap {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+  Status status;
+  std::vector<colmap::Reconstruction> models;
+};
+
+RunResult RunMapper(const std::string& database_path,
+                    GlobalMapperOptions options = GlobalMapperOptions()) {
+  RunResult result;
+  colmap::Reconstruction work;
+  GlobalMapper mapper(options);
+  result.status = mapper.Run(database_path, &work, &result.models);
+  return result;
+}
+
+// Largest relative-rotation error over all pairs of registered images.
+double MaxRelativeRotationErrorDeg(const colmap::Reconstruction& model,
+                                   const colmap::Reconstruction& truth) {
+  double max_error_deg = 0;
+  std::vector<colmap::image_t> ids = model.RegImageIds();
+  std::sort(ids.begin(), ids.end());
+  for (size_t i = 0; i < ids.size(); ++i) {
+    for (size_t j = i + 1; j < ids.size(); ++j) {
+      const Eigen::Quaterniond qi = Eigen::Quaterniond(
+          colmap::QuaternionToRotationMatrix(model.Image(ids[i]).Qvec()));
+      const Eigen::Quaterniond qj = Eigen::Quaterniond(
+          colmap::QuaternionToRotationMatrix(model.Image(ids[j]).Qvec()));
+      const Eigen::Quaterniond ti = Eigen::Quaterniond(
+          colmap::QuaternionToRotationMatrix(truth.Image(ids[i]).Qvec()));
+      const Eigen::Quaterniond tj = Eigen::Quaterniond(
+          colmap::QuaternionToRotationMatrix(truth.Image(ids[j]).Qvec()));
+      const double error_rad =
+          (qj * qi.inverse()).angularDistance(tj * ti.inverse());
+      max_error_deg = std::max(max_error_deg, error_rad * 180 / M_PI);
+    }
+  }
+  return max_error_deg;
+}
+
+struct SyntheticCase {
+  bool prior_focal_length;
+};
+
+class GlobalMapperSynthetic : public ::testing::TestWithParam<SyntheticCase> {};
+
+// The bar: 200 images, 1 px noise, 30% wrong matches; known
+// intrinsics: rotation error below 0.1 deg and every image registered;
+// unknown focal lengths: focal error below 1%.
+TEST_P(GlobalMapperSynthetic, TwoHundredImagesNoiseAndOutliers) {
+  const std::string dir = testing::CreateTestDir(
+      std::string("global_mapper_synthetic_") +
+      (GetParam().prior_focal_length ? "prior" : "no_prior"));
+  SyntheticSceneOptions scene;
+  scene.num_images = 200;
+  scene.pixel_noise_px = 1.0;
+  scene.wrong_match_ratio = 0.3;
+  scene.prior_focal_length = GetParam().prior_focal_length;
+  scene.random_seed = 7;
+  colmap::Reconstruction truth;
+  ASSERT_TRUE(
+      WriteSyntheticScene(scene, dir + "/database.db", &truth).ok());
+
+  const RunResult result = RunMapper(dir + "/database.db");
+  ASSERT_TRUE(result.status.ok()) << result.status.message();
+  ASSERT_EQ(result.models.size(), 1u);
+  const colmap::Reconstruction& model = result.models[0];
+  EXPECT_EQ(model.NumRegImages(), 200u);
+  EXPECT_LT(MaxRelativeRotationErrorDeg(model, truth), 0.1);
+  for (const auto& [camera_id, camera] : model.Cameras()) {
+    const double true_focal = truth.Camera(camera_id).MeanFocalLength();
+    EXPECT_LT(std::abs(camera.MeanFocalLength() - true_focal) / true_focal,
+              0.01)
+        << "camera " << camera_id;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(KnownAndUnknownFocal, GlobalMapperSynthetic,
+                         ::testing::Values(SyntheticCase{true},
+                                           SyntheticCase{false}));
+
+TEST(GlobalMapper, SameSeedSameModel) {
+  const std::string dir = testing::CreateTestDir("global_mapper_determinism");
+  SyntheticSceneOptions scene;
+  scene.num_images = 30;
+  scene.wrong_match_ratio = 0.2;
+  colmap::Reconstruction truth;
+  ASSERT_TRUE(WriteSyntheticScene(scene, dir + "/database.db", &truth).ok());
+  const RunResult a = RunMapper(dir + "/database.db");
+  const RunResult b = RunMapper(dir + "/database.db");
+  ASSERT_TRUE(a.status.ok() && b.status.ok());
+  ASSERT_EQ(a.models.size(), b.models.size());
+  const auto& ma = a.models[0];
+  const auto& mb = b.models[0];
+  ASSERT_EQ(ma.NumRegImages(), mb.NumRegImages());
+  ASSERT_EQ(ma.NumPoints3D(), mb.NumPoints3D());
+  for (const colmap::image_t image_id : ma.RegImageIds()) {
+    EXPECT_EQ(ma.Image(image_id).Qvec(), mb.Image(image_id).Qvec());
+    EXPECT_EQ(ma.Image(image_id).Tvec(), mb.Image(image_id).Tvec());
+  }
+}
+
+TEST(GlobalMapper, DatabaseWithoutPairsIsAnError) {
+  const std::string dir = testing::CreateTestDir("global_mapper_no_pairs");
+  const RunResult result = RunMapper(dir + "/missing.db");
+  EXPECT_FALSE(result.status.ok());
+  EXPECT_TRUE(result.models.empty());
+}
+
+// Real datasets: the reference figures of each dataset's README.
+struct RealCase {
+  std::string name;
+  size_t num_images;
+  double best_reference_auc3;     // better of the two reference mappers
+  double best_reference_pos_err;  // mean position error, GT units
+  double absolute_max_pos_err;    // when > 0, an absolute bar instead
+};
+
+class GlobalMapperRealData : public ::testing::TestWithParam<RealCase> {};
+
+TEST_P(GlobalMapperRealData, MatchesReferenceMappers) {
+  const std::string datasets = testing::SharedDatasetsDir();
+  if (datasets.empty()) GTEST_SKIP() << "../shared/datasets is absent";
+  const RealCase& c = GetParam();
+  const std::string dataset_dir = datasets + "/" + c.name;
+  const std::string database_path = dataset_dir + "/database.db";
+  const std::string digest_before = testing::FileDigest(database_path);
+
+  const RunResult result = RunMapper(database_path);
+  ASSERT_TRUE(result.status.ok()) << result.status.message();
+  EXPECT_EQ(testing::FileDigest(database_path), digest_before);
+  ASSERT_GE(result.models.size(), 1u);
+
+  colmap::Reconstruction truth;
+  ASSERT_TRUE(ReadModel(dataset_dir + "/gt", &truth).ok());
+  ModelEvaluation evaluation;
+  ASSERT_TRUE(EvaluateModel(result.models[0], truth, ModelEvaluationOptions(),
+                            &evaluation)
+                  .ok());
+  std::cout << c.name << ": registered " << evaluation.num_registered << "/"
+            << evaluation.num_gt_images << ", AUC@1/3/5/10 " << evaluation.pose_aucs[0]
+            << " " << evaluation.pose_aucs[1] << " " << evaluation.pose_aucs[2] << " "
+            << evaluation.pose_aucs[3] << ", position error mean "
+            << evaluation.position_error_mean << std::endl;
+  EXPECT_EQ(evaluation.num_registered, static_cast<int>(c.num_images));
+  if (c.absolute_max_pos_err > 0) {
+    EXPECT_LE(evaluation.position_error_mean, c.absolute_max_pos_err);
+  } else {
+    EXPECT_GE(evaluation.pose_aucs[1], c.best_reference_auc3 - 1.0);
+    EXPECT_LE(evaluation.position_error_mean, 1.2 * c.best_reference_pos_err);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    SharedDatasets, GlobalMapperRealData,
+    ::testing::Values(RealCase{"fountain-P11", 11, 88.7, 0.006072, 0},
+                      RealCase{"Herz-Jesus-P8", 8, 90.0, 0.008546, 0},
+                      RealCase{"entry-P10", 10, 88.4, 0.02241, 0},
+                      RealCase{"castle-P19", 19, 78.3, 0.1283, 0},
+                      RealCase{"templeRing", 47, 69.2, 0.001034, 0},
+                      RealCase{"KITTI_sequence_1", 51, 0, 0, 0.02}),
+    [](const auto& info) {
+      std::string name = info.param.name;
+      for (char& ch : name) {
+        if (!isalnum(ch)) ch = '_';
+      }
+      return name;
+    });
+
+}  // namespace
+}  // namespace glomap
