@@ -47,7 +47,7 @@ Eigen::Matrix3d LookAt(const Eigen::Vector3d& center,
 Scene MakeScene(const std::vector<Eigen::Vector3d>& centers,
                 const std::vector<Eigen::Matrix3d>& world_from_cams,
                 const std::vector<Eigen::Vector3d>& points, double noise_px,
-                bool prior_focal, int seed) {
+                bool prior_focal, int seed, double max_depth = 1e9) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0, noise_px);
   Scene scene;
@@ -63,7 +63,7 @@ Scene MakeScene(const std::vector<Eigen::Vector3d>& centers,
     const Eigen::Matrix3d cam_from_world = world_from_cams[i].transpose();
     for (size_t p = 0; p < points.size(); ++p) {
       const Eigen::Vector3d in_cam = cam_from_world * (points[p] - centers[i]);
-      if (in_cam.z() < 0.5) continue;
+      if (in_cam.z() < 0.5 || in_cam.z() > max_depth) continue;
       Eigen::Vector2d xy = camera.WorldToImage(in_cam.hnormalized());
       if (xy.x() < 0 || xy.y() < 0 || xy.x() > kWidthPx || xy.y() > kHeightPx)
         continue;
@@ -115,7 +115,7 @@ Scene MakeRingScene(int num_images, int num_points, double noise_px,
 }
 
 // A car driving straight ahead (1 m per frame, centres nearly collinear)
-// between two facades: the weak case for camera-to-camera translation
+// between two facades, features tracked up to 25 m away: the weak case for camera-to-camera translation
 // averaging, where the points make global positioning work.
 Scene MakeForwardScene(int num_images, int num_points, double noise_px,
                        int seed = 0) {
@@ -134,9 +134,10 @@ Scene MakeForwardScene(int num_images, int num_points, double noise_px,
   for (int p = 0; p < num_points; ++p) {
     const double side = unit(rng) < 0.5 ? -1 : 1;
     points.emplace_back(side * (4 + 6 * unit(rng)), -1.5 + 5 * unit(rng),
-                        (num_images + 30) * unit(rng));
+                        (num_images + 20) * unit(rng));
   }
-  return MakeScene(centers, rotations, points, noise_px, true, seed);
+  return MakeScene(centers, rotations, points, noise_px, true, seed,
+                   /*max_depth=*/25);
 }
 
 // Mean distance between the estimated and true centres after the best
