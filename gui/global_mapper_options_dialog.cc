@@ -66,9 +66,8 @@ GlobalMapperOptionsDialog::GlobalMapperOptionsDialog(
               return line_edit;
             }},
         entry.value);
-    const QString tool_tip =
-        QString::fromStdString(entry.help + "\n(--GlobalMapper." + entry.key +
-                               ")");
+    const QString tool_tip = QString::fromStdString(
+        entry.help + "\n(--GlobalMapper." + entry.key + ")");
     editor->setToolTip(tool_tip);
     QLabel* label = new QLabel(QString::fromStdString(entry.key), this);
     label->setToolTip(tool_tip);
@@ -80,10 +79,10 @@ GlobalMapperOptionsDialog::GlobalMapperOptionsDialog(
           &QStackedWidget::setCurrentIndex);
   group_list_->setCurrentRow(0);
 
-  QDialogButtonBox* buttons = new QDialogButtonBox(
-      QDialogButtonBox::Ok | QDialogButtonBox::Cancel |
-          QDialogButtonBox::RestoreDefaults,
-      this);
+  QDialogButtonBox* buttons =
+      new QDialogButtonBox(QDialogButtonBox::Ok | QDialogButtonBox::Cancel |
+                               QDialogButtonBox::RestoreDefaults,
+                           this);
   connect(buttons, &QDialogButtonBox::accepted, this, [this]() {
     if (Apply()) accept();
   });
@@ -119,19 +118,18 @@ void GlobalMapperOptionsDialog::showEvent(QShowEvent* event) {
 
 void GlobalMapperOptionsDialog::ReadValues() {
   for (const Row& row : rows_) {
-    std::visit(Overloaded{[&row](bool* value) {
-                            static_cast<QCheckBox*>(row.editor)
-                                ->setChecked(*value);
-                          },
-                          [&row](int* value) {
-                            static_cast<QSpinBox*>(row.editor)
-                                ->setValue(*value);
-                          },
-                          [&row](double* value) {
-                            static_cast<QLineEdit*>(row.editor)
-                                ->setText(DoubleToText(*value));
-                          }},
-               row.entry.value);
+    std::visit(
+        Overloaded{[&row](bool* value) {
+                     static_cast<QCheckBox*>(row.editor)->setChecked(*value);
+                   },
+                   [&row](int* value) {
+                     static_cast<QSpinBox*>(row.editor)->setValue(*value);
+                   },
+                   [&row](double* value) {
+                     static_cast<QLineEdit*>(row.editor)
+                         ->setText(DoubleToText(*value));
+                   }},
+        row.entry.value);
   }
 }
 
@@ -139,23 +137,23 @@ std::vector<std::string> GlobalMapperOptionsDialog::WriteValues() {
   std::vector<std::string> invalid_keys;
   for (const Row& row : rows_) {
     std::visit(
-        Overloaded{
-            [&row](bool* value) {
-              *value = static_cast<QCheckBox*>(row.editor)->isChecked();
-            },
-            [&row](int* value) {
-              *value = static_cast<QSpinBox*>(row.editor)->value();
-            },
-            [&row, &invalid_keys](double* value) {
-              bool ok = false;
-              const double parsed = QLocale::c().toDouble(
-                  static_cast<QLineEdit*>(row.editor)->text().trimmed(), &ok);
-              if (ok) {
-                *value = parsed;
-              } else {
-                invalid_keys.push_back(row.entry.key);
-              }
-            }},
+        Overloaded{[&row](bool* value) {
+                     *value = static_cast<QCheckBox*>(row.editor)->isChecked();
+                   },
+                   [&row](int* value) {
+                     *value = static_cast<QSpinBox*>(row.editor)->value();
+                   },
+                   [&row, &invalid_keys](double* value) {
+                     bool ok = false;
+                     const double parsed = QLocale::c().toDouble(
+                         static_cast<QLineEdit*>(row.editor)->text().trimmed(),
+                         &ok);
+                     if (ok) {
+                       *value = parsed;
+                     } else {
+                       invalid_keys.push_back(row.entry.key);
+                     }
+                   }},
         row.entry.value);
   }
   return invalid_keys;
@@ -166,16 +164,14 @@ bool GlobalMapperOptionsDialog::Apply() {
   // without an editor (image_path, the image list) keep their values.
   const std::vector<std::string> invalid_keys = WriteValues();
   if (!invalid_keys.empty()) {
-    QMessageBox::critical(
-        this, windowTitle(),
-        QString::fromStdString("Not a number: GlobalMapper." +
-                               invalid_keys.front()));
+    QMessageBox::critical(this, windowTitle(),
+                          QString::fromStdString("Not a number: GlobalMapper." +
+                                                 invalid_keys.front()));
     return false;
   }
   if (!edited_.Check()) {
-    QMessageBox::critical(
-        this, windowTitle(),
-        tr("Invalid GlobalMapper.* options (see the log)."));
+    QMessageBox::critical(this, windowTitle(),
+                          tr("Invalid GlobalMapper.* options (see the log)."));
     return false;
   }
   *options_ = edited_;

@@ -3,11 +3,10 @@
 // that names, defaults and help texts are always those of the command line.
 #pragma once
 
+#include <QtWidgets>
 #include <functional>
 #include <string>
 #include <vector>
-
-#include <QtWidgets>
 
 #include "colmap_ext/global_mapper_options.h"
 #include "glomap/global_mapper.h"

@@ -42,12 +42,11 @@ GlobalReconstructionUi::GlobalReconstructionUi(MainWindow* main_window)
   CreateActions();
   CreateStatusWidgets();
   ConnectProjectActions();
-  options_dialog_ = new GlobalMapperOptionsDialog(
-      window_, &options_, [this]() {
-        // Like a project file written by Save: keep the options with the
-        // project as soon as it has a file.
-        if (ExistsFile(*window_->options_.project_path)) SaveProjectOptions();
-      });
+  options_dialog_ = new GlobalMapperOptionsDialog(window_, &options_, [this]() {
+    // Like a project file written by Save: keep the options with the
+    // project as soon as it has a file.
+    if (ExistsFile(*window_->options_.project_path)) SaveProjectOptions();
+  });
   // `colmap gui --project_path p.ini` opened a project before we existed.
   LoadProjectOptions();
 
@@ -84,32 +83,34 @@ std::string GlobalReconstructionUi::OptionsFilePath(
 }
 
 void GlobalReconstructionUi::CreateActions() {
-  // The stock "start" icon with a globe-like ring marks the global variant.
-  QPixmap icon = QIcon(":/media/reconstruction-start.png").pixmap(32, 32);
-  if (icon.isNull()) {
-    icon = QPixmap(32, 32);
-    icon.fill(Qt::transparent);
-  }
+  // The stock "start" icon with a small globe: the global variant.
+  QPixmap icon(32, 32);
+  icon.fill(Qt::transparent);
   {
     QPainter painter(&icon);
     painter.setRenderHint(QPainter::Antialiasing);
-    painter.setPen(QPen(QColor(30, 90, 200), 3));
+    painter.setRenderHint(QPainter::SmoothPixmapTransform);
+    painter.drawPixmap(QRect(0, 0, 32, 32),
+                       QIcon(":/media/reconstruction-start.png").pixmap(16));
+    const QRectF globe(14.5, 14.5, 16, 16);
+    painter.setPen(QPen(QColor(20, 70, 170), 2.5));
+    painter.setBrush(QColor(255, 255, 255));
+    painter.drawEllipse(globe);
     painter.setBrush(Qt::NoBrush);
-    painter.drawEllipse(QRectF(15.5, 15.5, 15, 15));
-    painter.drawLine(QPointF(15.5, 23), QPointF(30.5, 23));
-    painter.drawEllipse(QRectF(19.5, 15.5, 7, 15));
+    painter.drawEllipse(globe.adjusted(4.5, 0, -4.5, 0));
+    painter.drawLine(QPointF(globe.left(), globe.center().y()),
+                     QPointF(globe.right(), globe.center().y()));
   }
 
-  action_run_ =
-      new QAction(QIcon(icon), tr("Global reconstruction"), window_);
+  action_run_ = new QAction(QIcon(icon), tr("Global reconstruction"), window_);
   action_run_->setToolTip(
       tr("Global reconstruction: all cameras at once (global mapper)"));
   connect(action_run_, &QAction::triggered, this, [this]() { Run(); });
   window_->blocking_actions_.push_back(action_run_);
 
-  action_options_ = new QAction(QIcon(":/media/reconstruction-options.png"),
-                                tr("Global reconstruction options..."),
-                                window_);
+  action_options_ =
+      new QAction(QIcon(":/media/reconstruction-options.png"),
+                  tr("Global reconstruction options..."), window_);
   connect(action_options_, &QAction::triggered, this,
           [this]() { ShowOptions(); });
   window_->blocking_actions_.push_back(action_options_);
@@ -133,6 +134,10 @@ void GlobalReconstructionUi::CreateStatusWidgets() {
   font.setPointSize(11);
   progress_label_ = new QLabel(window_);
   progress_label_->setFont(font);
+  // Wide enough for the longest stage name, so the time does not jump.
+  progress_label_->setMinimumWidth(QFontMetrics(font).horizontalAdvance(
+      "Global reconstruction: Stage 9/9 View graph calibration \u2014 "
+      "00:00:00"));
   progress_bar_ = new QProgressBar(window_);
   progress_bar_->setRange(0, glomap::GlobalMapper::kNumStages);
   progress_bar_->setFormat("%v/%m");
@@ -157,12 +162,11 @@ void GlobalReconstructionUi::CreateStatusWidgets() {
 void GlobalReconstructionUi::ConnectProjectActions() {
   // MainWindow's own handlers were connected first, so these run after them
   // and see the project path they set.
-  connect(window_->action_project_open_, &QAction::triggered, this,
-          [this]() {
-            if (*window_->options_.project_path != options_project_path_) {
-              LoadProjectOptions();
-            }
-          });
+  connect(window_->action_project_open_, &QAction::triggered, this, [this]() {
+    if (*window_->options_.project_path != options_project_path_) {
+      LoadProjectOptions();
+    }
+  });
   const auto save = [this]() {
     if (ExistsFile(*window_->options_.project_path)) SaveProjectOptions();
   };
@@ -175,7 +179,8 @@ void GlobalReconstructionUi::LoadProjectOptions() {
   options_ = glomap::GlobalMapperOptions();
   if (options_project_path_.empty()) return;
   const std::string path = OptionsFilePath(options_project_path_);
-  if (ExistsFile(path) && !glomap::ReadGlobalMapperOptionsFile(path, &options_)) {
+  if (ExistsFile(path) &&
+      !glomap::ReadGlobalMapperOptionsFile(path, &options_)) {
     options_ = glomap::GlobalMapperOptions();
     ShowError("Cannot read " + path + "; using the default options.");
   }
@@ -238,18 +243,17 @@ void GlobalReconstructionUi::Run() {
       [this, controller]() {
         if (controller->IsStopped()) return;
         QMetaObject::invokeMethod(
-            this, [this]() { OnModelUpdated(); },
-            Qt::BlockingQueuedConnection);
+            this, [this]() { OnModelUpdated(); }, Qt::BlockingQueuedConnection);
       });
-  controller->AddCallback(glomap::GlobalMapperController::FINISHED_CALLBACK,
-                          [this]() {
-                            QMetaObject::invokeMethod(
-                                this, [this]() { OnFinished(); },
-                                Qt::QueuedConnection);
-                          });
+  controller->AddCallback(
+      glomap::GlobalMapperController::FINISHED_CALLBACK, [this]() {
+        QMetaObject::invokeMethod(
+            this, [this]() { OnFinished(); }, Qt::QueuedConnection);
+      });
 
   running_ = true;
   cancelling_ = false;
+  closing_ = false;
   LockWindow();
   window_->timer_.Restart();
   elapsed_.start();
@@ -299,13 +303,15 @@ void GlobalReconstructionUi::UpdateProgress() {
   }
   progress_label_->setText(QString("Global reconstruction: %1 \u2014 %2")
                                .arg(stage, FormatElapsed(elapsed_.elapsed())));
-  progress_bar_->setValue(std::max(stage_index, 0));
+  // The bar counts stages begun, like the "Stage k/n" text.
+  progress_bar_->setValue(std::max(stage_index + 1, 0));
 }
 
 void GlobalReconstructionUi::OnModelUpdated() {
   // A cancelled run deletes its model: keep showing the last copy.
   if (cancelling_) return;
   window_->RenderNow();
+  ++num_model_updates_shown_;
 }
 
 void GlobalReconstructionUi::OnFinished() {

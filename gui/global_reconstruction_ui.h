@@ -6,13 +6,12 @@
 // friend declaration (patches 0002 and 0003).
 #pragma once
 
+#include <QtCore>
+#include <QtWidgets>
 #include <memory>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <QtCore>
-#include <QtWidgets>
 
 #include "base/reconstruction_manager.h"
 #include "glomap/global_mapper.h"
@@ -39,6 +38,8 @@ class GlobalReconstructionUi : public QObject {
   bool IsRunning() const { return controller_ != nullptr && running_; }
   // Outcome of the last finished run.
   const glomap::Status& LastStatus() const { return last_status_; }
+  // How often the viewer has shown an intermediate or final model.
+  int NumModelUpdatesShown() const { return num_model_updates_shown_; }
   // The main window's models (what its reconstruction manager holds).
   const ReconstructionManager& Models() const;
 
@@ -86,6 +87,7 @@ class GlobalReconstructionUi : public QObject {
   bool cancelling_ = false;
   bool closing_ = false;
   glomap::Status last_status_;
+  int num_model_updates_shown_ = 0;
   // Project file whose options file was last read or written.
   std::string options_project_path_;
 

@@ -402,7 +402,9 @@ namespace {
 
 // Development benchmark on a real model (e.g. the mapper's output with
 // bundle adjustment skipped): GLOMAP_BA_MODEL=<model dir>, optional
-// GLOMAP_BA_GT=<ground-truth model dir>. Skipped otherwise.
+// GLOMAP_BA_GT=<ground-truth model dir> (mean camera position error after a
+// similarity alignment), GLOMAP_BA_TOL and GLOMAP_BA_ITERS to override the
+// function tolerance and iteration cap. Skipped otherwise.
 TEST(GlobalBundleAdjustment, RealModelBenchmark) {
   const char* model_path = std::getenv("GLOMAP_BA_MODEL");
   if (model_path == nullptr) GTEST_SKIP();

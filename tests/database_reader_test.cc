@@ -1,11 +1,10 @@
 #include "glomap/database_reader.h"
 
+#include <gtest/gtest.h>
 #include <sqlite3.h>
 
 #include <filesystem>
 #include <fstream>
-
-#include <gtest/gtest.h>
 
 #include "base/database.h"
 #include "estimators/two_view_geometry.h"
@@ -90,7 +89,8 @@ std::string MakeTestDatabase(const std::string& dir) {
   // (3,1) written the other way round: stored canonically as (1,3).
   database.WriteMatches(3, 1, MakeMatches(22));
   database.WriteTwoViewGeometry(
-      3, 1, MakeGeometry(TwoViewGeometry::UNCALIBRATED, MakeMatches(17, 2), 20));
+      3, 1,
+      MakeGeometry(TwoViewGeometry::UNCALIBRATED, MakeMatches(17, 2), 20));
   // (1,4): only 10 inliers.
   database.WriteTwoViewGeometry(
       1, 4, MakeGeometry(TwoViewGeometry::CALIBRATED, MakeMatches(10), 30));
@@ -359,8 +359,8 @@ TEST(DatabaseReader, Errors) {
 
   const auto broken_copy = [&](const std::string& name,
                                const std::string& sql) {
-    const std::string dir_copy = testing::CreateTestDir(
-        "database_reader_errors_" + name);
+    const std::string dir_copy =
+        testing::CreateTestDir("database_reader_errors_" + name);
     const std::string path = MakeTestDatabase(dir_copy);
     ExecuteSql(path, sql);
     return path;
@@ -377,9 +377,9 @@ TEST(DatabaseReader, Errors) {
                                        "UPDATE images SET camera_id = 99 WHERE "
                                        "image_id = 2;")),
                "refers to camera 99");
-  expect_error(ReadDefault(broken_copy("keypoints",
-                                       "UPDATE keypoints SET cols = 3;")),
-               "is corrupt");
+  expect_error(
+      ReadDefault(broken_copy("keypoints", "UPDATE keypoints SET cols = 3;")),
+      "is corrupt");
   expect_error(
       ReadDefault(broken_copy("no_table", "DROP TABLE two_view_geometries;")),
       "is not a COLMAP database (no table two_view_geometries)");

@@ -75,6 +75,9 @@ TEST_P(GlobalMapperSynthetic, TwoHundredImagesNoiseAndOutliers) {
   scene.wrong_match_ratio = 0.3;
   scene.prior_focal_length = GetParam().prior_focal_length;
   scene.random_seed = 7;
+  // Ten nearest neighbours per image keep the database small and its
+  // verification (COLMAP's estimators) fast.
+  scene.max_pairs_per_image = 10;
   colmap::Reconstruction truth;
   ASSERT_TRUE(
       WriteSyntheticScene(scene, dir + "/database.db", &truth).ok());

@@ -115,8 +115,9 @@ Scene MakeRingScene(int num_images, int num_points, double noise_px,
 }
 
 // A car driving straight ahead (1 m per frame, centres nearly collinear)
-// between two facades, features tracked up to 25 m away: the weak case for camera-to-camera translation
-// averaging, where the points make global positioning work.
+// between two facades, features tracked up to 25 m away: the weak case for
+// camera-to-camera translation averaging, where the points make global
+// positioning work.
 Scene MakeForwardScene(int num_images, int num_points, double noise_px,
                        int seed = 0) {
   std::mt19937 rng(seed);
@@ -211,8 +212,19 @@ TEST(GlobalPositioning, ForwardMotion) {
 TEST(GlobalPositioning, DISABLED_LongForwardMotionBenchmark) {
   const char* num_images = std::getenv("GP_BENCHMARK_NUM_IMAGES");
   const int n = num_images ? std::atoi(num_images) : 200;
-  Scene scene = MakeForwardScene(n, 40 * n, 0.5);
-  ASSERT_TRUE(Solve(&scene).ok());
+  const char* num_points = std::getenv("GP_BENCHMARK_NUM_POINTS");
+  Scene scene =
+      std::getenv("GP_BENCHMARK_RING")
+          ? MakeRingScene(n, num_points ? std::atoi(num_points) : 500, 1.0)
+          : MakeForwardScene(n, 40 * n, 0.5);
+  GlobalPositioningOptions options;
+  if (const char* value = std::getenv("GP_BENCHMARK_EIGEN_BELOW")) {
+    options.max_num_images_eigen_sparse = std::atoi(value);
+  }
+  if (const char* box = std::getenv("GP_BENCHMARK_BOX")) {
+    options.init_box_size = std::atof(box);
+  }
+  ASSERT_TRUE(Solve(&scene, options).ok());
   const double error = RelativeCenterError(scene);
   std::cout << "  relative centre error " << error << std::endl;
 }
@@ -242,6 +254,33 @@ TEST(GlobalPositioning, FailsWithoutTracks) {
   EXPECT_FALSE(
       RunGlobalPositioning(bad_options, scene.tracks, &scene.reconstruction)
           .ok());
+}
+
+TEST(GlobalPositioning, RandomStartIsRejectedAsDegenerate) {
+  // No iterations leave cameras and points at the random start (the
+  // "cuboid" failure); nearly no ray agrees with its point.
+  Scene scene = MakeRingScene(10, 200, 0);
+  GlobalPositioningOptions options;
+  options.max_num_iterations = 0;
+  const Status status =
+      RunGlobalPositioning(options, scene.tracks, &scene.reconstruction);
+  EXPECT_FALSE(status.ok());
+  EXPECT_FALSE(status.cancelled());
+}
+
+TEST(GlobalPositioning, ImageWithoutObservationsIsDeregistered) {
+  Scene scene = MakeRingScene(8, 200, 0);
+  colmap::Image lonely;
+  lonely.SetImageId(100);
+  lonely.SetCameraId(1);
+  lonely.SetQvec(scene.reconstruction.Image(1).Qvec());
+  lonely.SetName("lonely");
+  lonely.SetPoints2D(std::vector<Eigen::Vector2d>{{1, 1}});
+  scene.reconstruction.AddImage(lonely);
+  scene.reconstruction.RegisterImage(100);
+  ASSERT_TRUE(Solve(&scene).ok());
+  EXPECT_FALSE(scene.reconstruction.IsImageRegistered(100));
+  EXPECT_EQ(scene.reconstruction.NumRegImages(), 8);
 }
 
 TEST(GlobalPositioning, InterruptCancels) {

@@ -1,11 +1,11 @@
 #include "glomap/synthetic_scene.h"
 
+#include <gtest/gtest.h>
+
 #include <filesystem>
 #include <map>
 #include <set>
 #include <sstream>
-
-#include <gtest/gtest.h>
 
 #include "base/database.h"
 #include "base/pose.h"
@@ -34,8 +34,8 @@ void MakeScene(const SyntheticSceneOptions& options, const std::string& name,
   ASSERT_TRUE(status.ok()) << status.message();
   DatabaseReaderOptions reader_options;
   const Status read_status =
-      ReadDatabase(scene->database_path, reader_options,
-                   &scene->reconstruction, &scene->view_graph);
+      ReadDatabase(scene->database_path, reader_options, &scene->reconstruction,
+                   &scene->view_graph);
   ASSERT_TRUE(read_status.ok()) << read_status.message();
 }
 
@@ -51,7 +51,8 @@ std::string ContentDigest(const Scene& scene) {
   for (const colmap::image_t image_id : image_ids) {
     const colmap::Image& image = scene.reconstruction.Image(image_id);
     out << image.Name() << image.CameraId();
-    for (const auto& point2D : image.Points2D()) out << point2D.XY().transpose();
+    for (const auto& point2D : image.Points2D())
+      out << point2D.XY().transpose();
   }
   for (const auto& [pair_id, pair] : scene.view_graph.Pairs()) {
     out << pair_id << ' ' << pair.config << ' ' << pair.num_raw_matches << ' '
@@ -206,8 +207,7 @@ TEST(SyntheticScene, WrongMatchesAreAddedAndRejected) {
   // Verification removes them again, except the few that happen to lie
   // near an epipolar line (a 4 px band covers ~1% of an image); in weak
   // pairs RANSAC may also fit those, as it does on real data.
-  EXPECT_GT(TotalTrueMatchFraction(noisy.ground_truth, noisy.view_graph),
-            0.97);
+  EXPECT_GT(TotalTrueMatchFraction(noisy.ground_truth, noisy.view_graph), 0.97);
   for (const auto& [pair_id, pair] : noisy.view_graph.Pairs()) {
     if (pair.matches.size() < 100) continue;
     EXPECT_GT(TrueMatchFraction(noisy.ground_truth, pair), 0.95);
@@ -313,9 +313,9 @@ TEST(SyntheticScene, OtherLayouts) {
     MakeScene(options, "layout_" + layout, &scene);
     CheckGroundTruth(options, scene);
     // Each image is matched to its neighbours only.
-    EXPECT_LE(scene.view_graph.NumPairs(),
-              static_cast<size_t>(options.num_images *
-                                  options.max_pairs_per_image));
+    EXPECT_LE(
+        scene.view_graph.NumPairs(),
+        static_cast<size_t>(options.num_images * options.max_pairs_per_image));
     // Tracks are short compared with the sequence.
     size_t max_track_length = 0;
     for (const auto& [id, point3D] : scene.ground_truth.Points3D()) {
@@ -339,7 +339,8 @@ TEST(SyntheticScene, Deterministic) {
   MakeScene(options, "seed_c", &other_seed);
   EXPECT_EQ(ContentDigest(first), ContentDigest(second));
   EXPECT_NE(ContentDigest(first), ContentDigest(other_seed));
-  EXPECT_EQ(first.ground_truth.NumPoints3D(), second.ground_truth.NumPoints3D());
+  EXPECT_EQ(first.ground_truth.NumPoints3D(),
+            second.ground_truth.NumPoints3D());
 }
 
 TEST(SyntheticScene, Errors) {

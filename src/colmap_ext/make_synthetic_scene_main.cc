@@ -6,12 +6,11 @@
 // DIR/database.db is a new COLMAP 3.8 database (as after feature extraction
 // and matching); DIR/gt/ is the ground truth as a COLMAP text model.
 
+#include <boost/program_options.hpp>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <string>
-
-#include <boost/program_options.hpp>
 
 #include "glomap/database_reader.h"
 #include "glomap/synthetic_scene.h"
@@ -35,8 +34,8 @@ int main(int argc, char** argv) {
   description.add_options()("help,h", "Print this help.")(
       "output_path", po::value<std::string>(&output_path)->required(),
       "Folder for database.db and gt/ (created; database.db must not exist).")(
-      "num_images", po::value<int>(&options.num_images)->default_value(
-                        options.num_images),
+      "num_images",
+      po::value<int>(&options.num_images)->default_value(options.num_images),
       "Number of images (10 to 10000).")(
       "num_cameras",
       po::value<int>(&options.num_cameras)->default_value(options.num_cameras),
@@ -49,26 +48,32 @@ int main(int argc, char** argv) {
       po::value<int>(&prior_focal_length)->default_value(prior_focal_length),
       "1: store the true cameras with focal priors; 0: store the feature "
       "extractor's guess without priors.")(
-      "image_width_px", po::value<int>(&options.image_width_px)
-                            ->default_value(options.image_width_px),
-      "Image width in pixels.")(
-      "image_height_px", po::value<int>(&options.image_height_px)
-                             ->default_value(options.image_height_px),
-      "Image height in pixels.")(
-      "focal_length_px", po::value<double>(&options.focal_length_px)
-                             ->default_value(options.focal_length_px),
+      "image_width_px",
+      po::value<int>(&options.image_width_px)
+          ->default_value(options.image_width_px),
+      "Image width in pixels.")("image_height_px",
+                                po::value<int>(&options.image_height_px)
+                                    ->default_value(options.image_height_px),
+                                "Image height in pixels.")(
+      "focal_length_px",
+      po::value<double>(&options.focal_length_px)
+          ->default_value(options.focal_length_px),
       "True focal length in pixels.")(
-      "num_points3D", po::value<int>(&options.num_points3D)
-                          ->default_value(options.num_points3D),
+      "num_points3D",
+      po::value<int>(&options.num_points3D)
+          ->default_value(options.num_points3D),
       "Number of 3D points (0: about 600 visible per image).")(
-      "pixel_noise_px", po::value<double>(&options.pixel_noise_px)
-                            ->default_value(options.pixel_noise_px),
+      "pixel_noise_px",
+      po::value<double>(&options.pixel_noise_px)
+          ->default_value(options.pixel_noise_px),
       "Standard deviation of the keypoint noise in pixels.")(
-      "wrong_match_ratio", po::value<double>(&options.wrong_match_ratio)
-                               ->default_value(options.wrong_match_ratio),
+      "wrong_match_ratio",
+      po::value<double>(&options.wrong_match_ratio)
+          ->default_value(options.wrong_match_ratio),
       "Fraction of raw matches that are wrong, in [0, 0.9].")(
-      "max_pairs_per_image", po::value<int>(&options.max_pairs_per_image)
-                                 ->default_value(options.max_pairs_per_image),
+      "max_pairs_per_image",
+      po::value<int>(&options.max_pairs_per_image)
+          ->default_value(options.max_pairs_per_image),
       "Each image is matched to this many nearest images.")(
       "layout",
       po::value<std::string>(&options.layout)->default_value(options.layout),
@@ -100,6 +105,12 @@ int main(int argc, char** argv) {
     return Fail("--prior_focal_length must be 0 or 1");
   }
   options.prior_focal_length = prior_focal_length == 1;
+
+  if (!options.Check()) {
+    // WriteSyntheticScene explains which option is wrong.
+    colmap::Reconstruction unused;
+    return Fail(glomap::WriteSyntheticScene(options, "", &unused).message());
+  }
 
   const std::filesystem::path output_dir(output_path);
   const std::string database_path = (output_dir / "database.db").string();

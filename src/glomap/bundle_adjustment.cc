@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdlib>
 #include <iostream>
 #include <memory>
 #include <set>
@@ -257,7 +256,7 @@ Status SolveWithFixedRotations(
   }
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
-  *num_iterations = static_cast<int>(summary.iterations.size()); if (getenv("BA_DEBUG")) std::cout << summary.FullReport() << std::endl;
+  *num_iterations = static_cast<int>(summary.iterations.size());
   if (summary.termination_type == ceres::FAILURE) {
     return Status::Error("Bundle adjustment with fixed rotations failed: " +
                          summary.message);
@@ -280,7 +279,7 @@ Status SolveJoint(const colmap::BundleAdjustmentOptions& ba_options,
     return Status::Error("Bundle adjustment has no observations.");
   }
   const ceres::Solver::Summary& summary = bundle_adjuster.Summary();
-  *num_iterations = static_cast<int>(summary.iterations.size()); if (getenv("BA_DEBUG")) std::cout << summary.FullReport() << std::endl;
+  *num_iterations = static_cast<int>(summary.iterations.size());
   if (summary.termination_type == ceres::FAILURE) {
     return Status::Error("Joint bundle adjustment failed: " + summary.message);
   }

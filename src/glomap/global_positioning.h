@@ -31,6 +31,11 @@ struct GlobalPositioningOptions {
   // Loss weight of observations from cameras without a prior focal length
   // (their rays are less certain; the reference's 0.5).
   double uncalibrated_weight = 0.5;
+  // Below this many images the solve uses Eigen's sparse Cholesky on the
+  // full normal equations (faster on small problems); from it on, Ceres'
+  // SPARSE_SCHUR with CHOLMOD and the elimination order scales, points,
+  // centres (supernodal, for large camera blocks).
+  int max_num_images_eigen_sparse = 500;
   // Ceres threads; -1 = all hardware threads.
   int num_threads = -1;
   // After the solve: observations whose ray is off by more than this angle

@@ -5,7 +5,6 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
-#include <memory>
 #include <numeric>
 #include <queue>
 #include <string>
@@ -204,15 +203,68 @@ double ApplyUpdate(const Eigen::MatrixX3d& update,
   return sum_norm / rotations->size();
 }
 
-// Kruskal's maximum spanning tree by inlier count, then rotations chained
-// outwards from node 0 (identity) in breadth-first order. Ties go to the
-// edge that comes first (pair-id order), so the tree is deterministic.
+// For every edge, the number of triangles it closes whose loop rotation
+// (composed around the cycle) is within max_loop_error_rad of the
+// identity. A wrong measurement rarely closes consistent loops with correct
+// ones, so this separates outliers that an inlier count cannot (e.g. wrong
+// pairs from repeated structure, which often have many inliers).
+std::vector<int> CountConsistentTriangles(const Problem& problem,
+                                          double max_loop_error_rad) {
+  const int num_nodes = static_cast<int>(problem.image_ids.size());
+  // Per node: (neighbor, edge index), sorted by neighbor for merging.
+  std::vector<std::vector<std::pair<int, int>>> adjacency(num_nodes);
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    adjacency[problem.edges[e].node1].emplace_back(problem.edges[e].node2, e);
+    adjacency[problem.edges[e].node2].emplace_back(problem.edges[e].node1, e);
+  }
+  for (auto& neighbors : adjacency)
+    std::sort(neighbors.begin(), neighbors.end());
+  // Measured rotation from node `from` to the other node of edge e.
+  auto relative = [&problem](int e, int from) {
+    const Edge& edge = problem.edges[e];
+    return edge.node1 == from ? edge.rotation2_from_1
+                              : edge.rotation2_from_1.conjugate();
+  };
+  std::vector<int> support(problem.edges.size(), 0);
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    const int i = problem.edges[e].node1, j = problem.edges[e].node2;
+    const Eigen::Quaterniond j_from_i = problem.edges[e].rotation2_from_1;
+    const auto& ni = adjacency[i];
+    const auto& nj = adjacency[j];
+    for (size_t a = 0, b = 0; a < ni.size() && b < nj.size();) {
+      if (ni[a].first < nj[b].first) {
+        ++a;
+      } else if (nj[b].first < ni[a].first) {
+        ++b;
+      } else {
+        // i -> j -> k -> i should compose to the identity.
+        const Eigen::Quaterniond loop = relative(ni[a].second, ni[a].first) *
+                                        relative(nj[b].second, j) * j_from_i;
+        if (LogMap(loop.normalized()).norm() < max_loop_error_rad) {
+          ++support[e];
+        }
+        ++a;
+        ++b;
+      }
+    }
+  }
+  return support;
+}
+
+// Kruskal's maximum spanning tree, then rotations chained outwards from node
+// 0 (identity) in breadth-first order. Edges are preferred by the number of
+// consistent triangles they close (if given), then by inlier count; ties go
+// to the edge that comes first (pair-id order), so the tree is deterministic.
 std::vector<Eigen::Quaterniond> InitializeFromSpanningTree(
-    const Problem& problem) {
+    const Problem& problem, const std::vector<int>& triangle_support) {
   const int num_nodes = static_cast<int>(problem.image_ids.size());
   std::vector<size_t> order(problem.edges.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    if (!triangle_support.empty() &&
+        triangle_support[a] != triangle_support[b]) {
+      return triangle_support[a] > triangle_support[b];
+    }
     return problem.edges[a].tree_weight > problem.edges[b].tree_weight;
   });
 
@@ -348,7 +400,7 @@ Status SolveRotations(const RotationAveragingOptions& options,
       // The ADMM solve need not be exact: relinearizing matters more than
       // inner accuracy, so inner iterations start at 10 and double (capped
       // at 100), as in the reference.
-      const int max_inner = std::min(10 << iteration, 100);
+      const int max_inner = iteration < 4 ? 10 << iteration : 100;
       int num_inner = 0;
       if (!SolveGroupL1(edges, residuals, num_nodes, max_inner, &solver,
                         &update, &num_inner)) {
@@ -533,7 +585,10 @@ Status AverageRotations(const RotationAveragingOptions& options,
     // spanning tree (the reference re-initializes): it is already in the
     // inliers' basin and closer than any chain of noisy measurements.
     if (round == 0) {
-      rotations = InitializeFromSpanningTree(problem);
+      rotations = InitializeFromSpanningTree(
+          problem, options.use_triangle_support_in_tree
+                       ? CountConsistentTriangles(problem, max_error_rad)
+                       : std::vector<int>());
     } else {
       rotations.clear();
       for (const colmap::image_t image_id : component) {

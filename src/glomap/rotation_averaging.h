@@ -28,9 +28,13 @@ struct RotationAveragingOptions {
   // Pairs whose relative rotation disagrees with the averaged rotations by
   // more than this are invalidated, and the problem is solved again (deg).
   double max_rotation_error_deg = 10.0;
-  // Number of solve-then-reject rounds; the reference runs two, the second
-  // from a fresh spanning tree of the pairs that survived the first.
+  // Number of solve-then-reject rounds (the reference runs two). Rounds after
+  // the first start from the previous round's rotations.
   int num_rounds = 2;
+  // Build the initial spanning tree preferring pairs that close rotation-
+  // consistent triangles (loop error < max_rotation_error_deg), then pairs
+  // with more inliers; false uses the inlier count only (as the reference).
+  bool use_triangle_support_in_tree = true;
 
   bool Check() const;
 };

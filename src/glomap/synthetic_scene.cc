@@ -171,8 +171,9 @@ struct Layout {
   std::function<ScenePoint(std::mt19937&)> sample_point;
 };
 
-// Object-centred: a bumpy sphere of radius 2 seen from distance 8, so that
-// neighbouring views have triangulation angles of a few degrees to ~30.
+// Object-centred: a bumpy sphere of radius 2 seen from distance 8 (so that
+// neighbouring views have triangulation angles of a few degrees to ~30), in
+// a room.
 Layout MakeRingLayout(int num_images, std::mt19937& rng) {
   constexpr double kObjectRadius = 2.0;
   constexpr double kDistance = 8.0;
@@ -205,13 +206,37 @@ Layout MakeRingLayout(int num_images, std::mt19937& rng) {
                                      Eigen::Vector3d::UnitZ(),
                                      Uniform(rng, -3, 3) * kDegToRad));
   }
-  layout.sample_point = [](std::mt19937& rng) {
-    std::normal_distribution<double> normal(0, 1);
-    Eigen::Vector3d dir(normal(rng), normal(rng), normal(rng));
-    dir.normalize();
+  // The object stands in a room, as in a real capture: half of the points
+  // lie on the object, the others on the floor and on the walls. Seen only
+  // on the object (a shallow cap at distance 8), rotation and translation of
+  // a camera trade against each other (the bas-relief ambiguity) and 1 px of
+  // noise moves the best rotations by ~0.1 deg; the room's depth range makes
+  // the poses as well determined as in real object captures.
+  constexpr double kFloorZ = -kObjectRadius;
+  constexpr double kRoomRadius = 16.0;
+  constexpr double kWallHeight = 10.0;
+  layout.sample_point = [=](std::mt19937& rng) {
     ScenePoint point;
-    point.xyz = kObjectRadius * (1 + Uniform(rng, -0.05, 0.05)) * dir;
-    point.normal = dir;
+    const double pick = Uniform(rng, 0, 1);
+    if (pick < 0.5) {
+      std::normal_distribution<double> normal(0, 1);
+      Eigen::Vector3d dir(normal(rng), normal(rng), normal(rng));
+      dir.normalize();
+      point.xyz = kObjectRadius * (1 + Uniform(rng, -0.05, 0.05)) * dir;
+      point.normal = dir;
+    } else if (pick < 0.75) {
+      const double r = kRoomRadius * std::sqrt(Uniform(rng, 0, 1));
+      const double a = Uniform(rng, 0, 2 * kPi);
+      point.xyz = Eigen::Vector3d(r * std::cos(a), r * std::sin(a),
+                                  kFloorZ + Uniform(rng, -0.05, 0.05));
+      point.normal = Eigen::Vector3d::UnitZ();
+    } else {
+      const double a = Uniform(rng, 0, 2 * kPi);
+      const Eigen::Vector3d radial(std::cos(a), std::sin(a), 0);
+      point.xyz = kRoomRadius * (1 + Uniform(rng, -0.005, 0.005)) * radial +
+                  Eigen::Vector3d(0, 0, kFloorZ + Uniform(rng, 0, kWallHeight));
+      point.normal = -radial;
+    }
     return point;
   };
   return layout;

@@ -3,13 +3,16 @@
 // menu entry, wait, look at the models, the statistics window, File > Export,
 // and take a screenshot. Runs under Xvfb with Mesa (see gui/CMakeLists.txt);
 // skips when the shared datasets are absent.
-#include <filesystem>
-#include <functional>
-#include <string>
-#include <vector>
+#include <gtest/gtest.h>
 
 #include <QtWidgets>
-#include <gtest/gtest.h>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <string>
+#include <vector>
 
 #include "base/database.h"
 #include "colmap_ext/global_mapper_options.h"
@@ -49,7 +52,8 @@ std::string WriteProject(const std::string& test_dir,
   options.AddAllOptions();
   *options.database_path = database_path.string();
   *options.image_path = (fs::path(fountain_dir) / "images").string();
-  const std::string project_path = (fs::path(test_dir) / "project.ini").string();
+  const std::string project_path =
+      (fs::path(test_dir) / "project.ini").string();
   options.Write(project_path);
   return project_path;
 }
@@ -174,8 +178,8 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
   EXPECT_EQ(ui->Options()->random_seed, 7);
 
   // The menu entry sits after the incremental actions; a tool-bar button too.
-  QAction* run = FindMenuAction(&window, "Reconstruction",
-                                "Global reconstruction");
+  QAction* run =
+      FindMenuAction(&window, "Reconstruction", "Global reconstruction");
   ASSERT_NE(run, nullptr);
   ASSERT_TRUE(run->isEnabled());
   bool in_toolbar = false;
@@ -183,8 +187,8 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
     in_toolbar = in_toolbar || toolbar->actions().contains(run);
   }
   EXPECT_TRUE(in_toolbar);
-  QAction* options_action = FindMenuAction(
-      &window, "Reconstruction", "Global reconstruction options...");
+  QAction* options_action = FindMenuAction(&window, "Reconstruction",
+                                           "Global reconstruction options...");
   ASSERT_NE(options_action, nullptr);
 
   // The options dialog lists every table entry, grouped by stage.
@@ -192,13 +196,40 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
   ProcessEventsFor(100);
   EXPECT_TRUE(ui->OptionsDialog()->isVisible());
   glomap::GlobalMapperOptions table_options;
-  EXPECT_EQ(ui->OptionsDialog()->NumOptions(),
-            static_cast<int>(
-                glomap::GlobalMapperOptionTable(&table_options).size()));
+  EXPECT_EQ(
+      ui->OptionsDialog()->NumOptions(),
+      static_cast<int>(glomap::GlobalMapperOptionTable(&table_options).size()));
   EXPECT_GT(ui->OptionsDialog()->Groups().size(), 1);
+  ui->OptionsDialog()->grab().save(QString(GLOMAP_BINARY_DIR) +
+                                   "/gui_options_dialog.png");
   EXPECT_TRUE(ui->OptionsDialog()->Apply());
   ui->OptionsDialog()->hide();
   EXPECT_EQ(ui->Options()->random_seed, 7);
+
+  // File > Save project keeps the options beside the project, and leaves
+  // the project file readable by stock COLMAP 3.8 (which rejects unknown
+  // keys).
+  const std::string options_path =
+      GlobalReconstructionUi::OptionsFilePath(project_path);
+  fs::remove(options_path);
+  ui->Options()->num_threads = 2;
+  QAction* save = FindMenuAction(&window, "File", "Save project");
+  ASSERT_NE(save, nullptr);
+  save->trigger();
+  glomap::GlobalMapperOptions reread;
+  ASSERT_TRUE(glomap::ReadGlobalMapperOptionsFile(options_path, &reread));
+  EXPECT_EQ(reread.random_seed, 7);
+  EXPECT_EQ(reread.num_threads, 2);
+  {
+    OptionManager stock_reader;
+    stock_reader.AddAllOptions();
+    EXPECT_TRUE(stock_reader.Read(project_path));
+    std::ifstream project_file(project_path);
+    const std::string project_text(
+        (std::istreambuf_iterator<char>(project_file)),
+        std::istreambuf_iterator<char>());
+    EXPECT_EQ(project_text.find("GlobalMapper"), std::string::npos);
+  }
 
   // Any message box during the run is a failure: record and close it.
   QStringList unexpected_messages;
@@ -218,25 +249,33 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
   EXPECT_FALSE(run->isEnabled()) << "The action must be blocked while running";
   int max_stage_seen = -1;
   QString progress_text;
+  bool running_screenshot_saved = false;
   ASSERT_TRUE(WaitUntil(
       [&]() {
         for (QLabel* label : window.statusBar()->findChildren<QLabel*>()) {
           if (label->text().startsWith("Global reconstruction: Stage")) {
             progress_text = label->text();
-            max_stage_seen =
-                std::max(max_stage_seen,
-                         progress_text.section(' ', 3, 3).section('/', 0, 0)
-                             .toInt());
+            max_stage_seen = std::max(
+                max_stage_seen,
+                progress_text.section(' ', 3, 3).section('/', 0, 0).toInt());
           }
+        }
+        // One screenshot while bundle adjustment refines the model.
+        if (!running_screenshot_saved &&
+            progress_text.contains("Bundle adjustment")) {
+          running_screenshot_saved = window.grab().save(
+              QString(GLOMAP_BINARY_DIR) + "/gui_screenshot_running.png");
         }
         return !ui->IsRunning();
       },
       kRunTimeoutMs))
       << "Global reconstruction did not finish";
-  std::cout << "Global reconstruction took " << run_timer.elapsed() / 1000.0
-            << " s; last progress text: " << progress_text.toStdString()
-            << std::endl;
+  // printf: COLMAP's log widget has taken over std::cout and std::cerr.
+  printf("Global reconstruction took %.1f s; last progress: %s\n",
+         run_timer.elapsed() / 1000.0, progress_text.toStdString().c_str());
   EXPECT_GE(max_stage_seen, 2) << "The status bar never showed the stages";
+  // After global positioning, after each BA round, at the end.
+  EXPECT_GE(ui->NumModelUpdatesShown(), 3);
   EXPECT_TRUE(unexpected_messages.isEmpty())
       << unexpected_messages.join("\n").toStdString();
   ASSERT_TRUE(ui->LastStatus().ok()) << ui->LastStatus().message();
@@ -264,27 +303,35 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
     if (widget->windowTitle() == "Reconstruction statistics") widget->hide();
   }
 
-  // Screenshot of the whole main window, model drawn by Mesa.
-  ProcessEventsFor(500);
-  const QImage screenshot = window.grab().toImage();
+  // The viewer draws the model (Mesa's software OpenGL under Xvfb).
+  ProcessEventsFor(300);
+  QWidget* viewer_widget = window.centralWidget();
+  const QRect viewer_rect(viewer_widget->mapTo(&window, QPoint(0, 0)),
+                          viewer_widget->size());
+  QImage screenshot = window.grab().toImage();
+  EXPECT_GT(DrawnFraction(screenshot, viewer_rect), 0.002)
+      << "The model viewer shows nothing";
+
+  // Screenshot of the whole main window, zoomed in as with the mouse wheel
+  // (unzoomed if that loses the model).
+  ModelViewerWidget* viewer = static_cast<ModelViewerWidget*>(viewer_widget);
+  viewer->ChangeFocusDistance(600);
+  viewer->ChangePointSize(500);
+  ProcessEventsFor(300);
+  const QImage zoomed = window.grab().toImage();
+  if (DrawnFraction(zoomed, viewer_rect) > 0.01) screenshot = zoomed;
   const std::string screenshot_path =
       std::string(GLOMAP_BINARY_DIR) + "/gui_screenshot.png";
   ASSERT_TRUE(screenshot.save(QString::fromStdString(screenshot_path)));
-  std::cout << "Screenshot: " << screenshot_path << std::endl;
-  QWidget* viewer = window.centralWidget();
-  const QRect viewer_rect(viewer->mapTo(&window, QPoint(0, 0)),
-                          viewer->size());
-  EXPECT_GT(DrawnFraction(screenshot, viewer_rect), 0.002)
-      << "The model viewer shows nothing";
+  printf("Screenshot: %s\n", screenshot_path.c_str());
 
   // File > Export writes the selected (largest) model.
   const std::string export_dir = test_dir + "/export";
   fs::create_directories(export_dir);
   ModalDialogHandler file_dialogs([&](QWidget* modal) {
-    fprintf(stderr, "modal: %s\n", modal->metaObject()->className());
     if (QFileDialog* dialog = qobject_cast<QFileDialog*>(modal)) {
+      // With nothing selected, a folder dialog returns its current folder.
       dialog->setDirectory(QString::fromStdString(export_dir));
-      dialog->selectFile(QString::fromStdString(export_dir));
       // Public in QDialog, virtual: runs QFileDialog::accept().
       static_cast<QDialog*>(dialog)->accept();
       return true;
@@ -293,8 +340,6 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
   });
   QAction* export_action = FindMenuAction(&window, "File", "Export model");
   ASSERT_NE(export_action, nullptr);
-  fprintf(stderr, "export enabled %d\n", export_action->isEnabled());
-  QTimer::singleShot(1000, [](){ for (QWidget* w : QApplication::topLevelWidgets()) if (w->isVisible()) fprintf(stderr, "top: %s %s\n", w->metaObject()->className(), w->windowTitle().toStdString().c_str()); });
   export_action->trigger();
   ASSERT_TRUE(WaitUntil(
       [&]() { return fs::exists(export_dir + "/points3D.bin"); }, 60000));
@@ -334,8 +379,7 @@ TEST(GlobalReconstructionGui, CancelLeavesNoModel) {
   ASSERT_TRUE(ui->IsRunning());
   ProcessEventsFor(1500);
   QPushButton* cancel = nullptr;
-  for (QPushButton* button :
-       window.statusBar()->findChildren<QPushButton*>()) {
+  for (QPushButton* button : window.statusBar()->findChildren<QPushButton*>()) {
     if (button->text() == "Cancel" && button->isVisible()) cancel = button;
   }
   ASSERT_NE(cancel, nullptr);
@@ -344,12 +388,59 @@ TEST(GlobalReconstructionGui, CancelLeavesNoModel) {
   cancel_timer.start();
   cancel->click();
   ASSERT_TRUE(WaitUntil([&]() { return !ui->IsRunning(); }, 60000));
-  std::cout << "Cancel took " << cancel_timer.elapsed() << " ms" << std::endl;
+  printf("Cancel took %lld ms\n", cancel_timer.elapsed());
   EXPECT_LT(cancel_timer.elapsed(), 10000) << "Cancel is not prompt";
   EXPECT_TRUE(ui->LastStatus().cancelled()) << ui->LastStatus().message();
   EXPECT_EQ(ui->Models().Size(), 0u);
   EXPECT_TRUE(messages.isEmpty()) << messages.join("\n").toStdString();
   EXPECT_TRUE(ui->RunAction()->isEnabled());
+}
+
+TEST(GlobalReconstructionGui, ClosingTheWindowStopsTheRun) {
+  const std::string fountain_dir = FountainDir();
+  if (fountain_dir.empty()) {
+    GTEST_SKIP() << "Shared dataset fountain-P11 not found.";
+  }
+  const std::string test_dir =
+      glomap::testing::CreateTestDir("global_reconstruction_gui_close");
+  const std::string project_path = WriteProject(test_dir, fountain_dir);
+  OptionManager options;
+  std::string import_path;
+  ParseGuiArguments(project_path, &options, &import_path);
+  MainWindow window(options);
+  GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
+  window.show();
+
+  // "Do you really want to quit?" -> Yes.
+  QStringList questions;
+  ModalDialogHandler message_boxes([&](QWidget* modal) {
+    if (QMessageBox* box = qobject_cast<QMessageBox*>(modal)) {
+      questions << box->text();
+      if (box->button(QMessageBox::Yes) != nullptr) {
+        box->button(QMessageBox::Yes)->click();
+      } else {
+        box->reject();
+      }
+      return true;
+    }
+    return false;
+  });
+
+  ui->RunAction()->trigger();
+  ASSERT_TRUE(ui->IsRunning());
+  ProcessEventsFor(1500);
+  if (!ui->IsRunning()) GTEST_SKIP() << "The run finished before closing";
+  QElapsedTimer close_timer;
+  close_timer.start();
+  EXPECT_TRUE(window.close());
+  printf("Closing took %lld ms\n", close_timer.elapsed());
+  EXPECT_LT(close_timer.elapsed(), 10000);
+  EXPECT_FALSE(window.isVisible());
+  ProcessEventsFor(200);
+  EXPECT_FALSE(ui->IsRunning());
+  EXPECT_EQ(ui->Models().Size(), 0u);
+  ASSERT_EQ(questions.size(), 1);
+  EXPECT_TRUE(questions.front().contains("quit"));
 }
 
 TEST(GlobalReconstructionGui, ErrorShowsTheCommandLineMessage) {
@@ -387,6 +478,7 @@ TEST(GlobalReconstructionGui, ErrorShowsTheCommandLineMessage) {
   ASSERT_TRUE(WaitUntil([&]() { return !messages.isEmpty(); }, 5000));
   EXPECT_FALSE(ui->LastStatus().ok());
   EXPECT_FALSE(ui->LastStatus().cancelled());
+  printf("Message box: %s\n", messages.front().toStdString().c_str());
   EXPECT_EQ(messages.front().toStdString(), ui->LastStatus().message());
   EXPECT_EQ(ui->Models().Size(), 0u);
   EXPECT_TRUE(ui->RunAction()->isEnabled());
