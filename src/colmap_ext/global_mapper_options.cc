@@ -74,6 +74,8 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("rp_max_num_refinement_iterations",
         &rp.max_num_refinement_iterations,
         "Iterations of the relative-pose refinement");
+  b.Add("rp_max_num_refinement_points", &rp.max_num_refinement_points,
+        "Matches used by the relative-pose refinement");
   b.Add("rp_max_epipolar_error_E_px", &rp.max_epipolar_error_E_px,
         "Inlier threshold of calibrated pairs [px]");
   b.Add("rp_max_epipolar_error_F_px", &rp.max_epipolar_error_F_px,
@@ -104,6 +106,8 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "[deg]");
   b.Add("ra_num_rounds", &ra.num_rounds,
         "Solve, reject, solve again: number of solves");
+  b.Add("ra_use_triangle_support_in_tree", &ra.use_triangle_support_in_tree,
+        "Start from a spanning tree of pairs that close consistent triangles");
 
   b.Group("Tracks");
   auto& tr = o->tracks;
@@ -140,6 +144,9 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Points with a smaller triangulation angle are removed [deg]");
   b.Add("gp_min_inlier_observation_ratio", &gp.min_inlier_observation_ratio,
         "Fail if fewer observations survive filtering");
+  b.Add("gp_max_num_images_eigen_sparse", &gp.max_num_images_eigen_sparse,
+        "Below this many images, solve with Eigen's sparse Cholesky; above, "
+        "with CHOLMOD and a Schur complement");
 
   b.Group("Bundle adjustment");
   auto& ba = o->bundle_adjustment;

@@ -16,8 +16,12 @@
 namespace glomap {
 
 struct GlobalBundleAdjustmentOptions {
-  // Maximum number of rounds (rotation-fixed solve, joint solve, filtering).
-  int num_rounds = 3;
+  // Maximum number of rounds (rotation-fixed solve in the first round, joint
+  // solve, filtering). The reference runs 3; after the second round the
+  // final bundle adjustment that follows retriangulation does the remaining
+  // work on many more points, so a third round only costs time (on
+  // KITTI_sequence_1: 3 rounds 19.2 s, 1.80 cm; 2 rounds 17.8 s, 1.22 cm).
+  int num_rounds = 2;
 
   // Scale of the robust loss on the reprojection residual, in pixels. The
   // loss is Ceres' soft-L1 (quadratic below the scale, linear above): the
@@ -28,7 +32,10 @@ struct GlobalBundleAdjustmentOptions {
   double loss_scale_px = 1.0;
 
   // Maximum Ceres iterations per solve (each round has up to two solves).
-  int max_num_iterations = 50;
+  // Forward motion with unknown focal length converges slowly (a long valley
+  // between focal length, distortion and depth); capping each solve and
+  // letting later solves continue is faster than running one to the end.
+  int max_num_iterations = 30;
 
   // A solve stops once the relative cost decrease of an iteration falls
   // below this value (Ceres' function_tolerance; the reference uses 1e-5).

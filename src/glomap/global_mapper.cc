@@ -83,8 +83,17 @@ GlobalMapper::GlobalMapper(GlobalMapperOptions options)
   options_.relative_pose.random_seed = options_.random_seed;
   options_.global_positioning.random_seed = options_.random_seed + 1;
   options_.relative_pose.num_threads = options_.num_threads;
+  options_.view_graph_calibration.num_threads = options_.num_threads;
   options_.global_positioning.num_threads = options_.num_threads;
   options_.bundle_adjustment.num_threads = options_.num_threads;
+  // The bundle adjustment after retriangulation is one joint round with the
+  // same solver settings as the rounds before it (one set of ba_* options).
+  GlobalBundleAdjustmentOptions& final_ba =
+      options_.retriangulation.bundle_adjustment;
+  final_ba = options_.bundle_adjustment;
+  final_ba.num_rounds = 1;
+  final_ba.skip_fixed_rotation_stage = true;
+  final_ba.skip_joint_stage = false;
 }
 
 Status GlobalMapper::Run(const std::string& database_path,

@@ -1,5 +1,7 @@
 #include "glomap/retriangulation.h"
 
+#include "util/logging.h"
+
 #include <algorithm>
 #include <chrono>
 #include <iostream>
@@ -243,14 +245,14 @@ Status Retriangulate(const RetriangulationOptions& options,
     const colmap::Point3D& point3D = work.Point3D(point3D_id);
     reconstruction->AddPoint3D(point3D.XYZ(), point3D.Track(), point3D.Color());
   }
-  std::cout << "Retriangulation: " << num_pairs << " pairs, "
+  LOG(INFO) << "Retriangulation: " << num_pairs << " pairs, "
             << num_triangulated << " points triangulated, "
             << reconstruction->NumPoints3D() << " after refinement ("
             << old_ids.size() << " before), "
             << std::chrono::duration<double>(std::chrono::steady_clock::now() -
                                              start)
                    .count()
-            << " s" << std::endl;
+            << " s";
 
   if (options.run_bundle_adjustment) {
     const Status status = RunGlobalBundleAdjustment(options.bundle_adjustment,

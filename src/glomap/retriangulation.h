@@ -33,7 +33,9 @@ struct RetriangulationOptions {
   // Refinement loop (COLMAP's point_triangulator): structure-only BA, track
   // completion and merging, then filtering; at most this many times, and
   // only while more than `max_refinement_change` of the observations change.
-  int max_refinements = 5;
+  // One pass suffices here (COLMAP runs 5): the full bundle adjustment that
+  // follows refines every point again, with the poses.
+  int max_refinements = 1;
   double max_refinement_change = 0.0005;
   // Iterations of each structure-only BA.
   int max_num_structure_iterations = 50;
