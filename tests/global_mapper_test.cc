@@ -96,9 +96,13 @@ TEST_P(GlobalMapperSynthetic, TwoHundredImagesNoiseAndOutliers) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(KnownAndUnknownFocal, GlobalMapperSynthetic,
-                         ::testing::Values(SyntheticCase{true},
-                                           SyntheticCase{false}));
+INSTANTIATE_TEST_SUITE_P(
+    Synthetic, GlobalMapperSynthetic,
+    ::testing::Values(SyntheticCase{true}, SyntheticCase{false}),
+    [](const auto& info) {
+      return std::string(info.param.prior_focal_length ? "KnownFocal"
+                                                       : "UnknownFocal");
+    });
 
 TEST(GlobalMapper, SameSeedSameModel) {
   const std::string dir = testing::CreateTestDir("global_mapper_determinism");
