@@ -214,8 +214,13 @@ def make_synthetic(args, num_images):
     if not os.path.exists(tool):
         log("synthetic scene: %s not found, skipped" % tool)
         return None
-    code, text = capture([tool, "--output_path", path,
-                          "--num_images", str(num_images)])
+    command = [tool, "--output_path", path, "--num_images", str(num_images)]
+    if num_images > 300:
+        # Large scenes: an aerial survey with ground-truth verification (the
+        # generator's COLMAP verification would dominate the run).
+        command += ["--layout", "grid", "--verification", "ground_truth",
+                    "--wrong_match_ratio", "0.3", "--prior_focal_length", "0"]
+    code, text = capture(command)
     if code != 0 or not os.path.isfile(os.path.join(path, "database.db")):
         log("synthetic scene: %s failed: %s" %
             (tool, (text.strip().splitlines() or ["no output"])[-1]))
