@@ -177,6 +177,8 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   auto& tri = o->retriangulation;
   b.Add("tri_min_num_matches", &tri.min_num_matches,
         "Pairs with fewer matches are not used");
+  b.Add("tri_use_only_valid_pairs", &tri.use_only_valid_pairs,
+        "Triangulate only from pairs kept by the earlier stages");
   b.Add("tri_complete_max_reproj_error_px",
         &tri.complete_max_reproj_error_px, "Track completion threshold [px]");
   b.Add("tri_merge_max_reproj_error_px", &tri.merge_max_reproj_error_px,
@@ -200,6 +202,8 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Triangulation-angle filter [deg]");
   b.Add("tri_run_bundle_adjustment", &tri.run_bundle_adjustment,
         "Run a final bundle adjustment");
+  b.Add("tri_final_ba_max_num_iterations", &tri.final_ba_max_num_iterations,
+        "Iteration cap of the final bundle adjustment");
 
   b.Group("Camera clustering");
   auto& cc = o->clustering;

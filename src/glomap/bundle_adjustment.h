@@ -35,7 +35,7 @@ struct GlobalBundleAdjustmentOptions {
   // Forward motion with unknown focal length converges slowly (a long valley
   // between focal length, distortion and depth); capping each solve and
   // letting later solves continue is faster than running one to the end.
-  int max_num_iterations = 30;
+  int max_num_iterations = 40;
 
   // A solve stops once the relative cost decrease of an iteration falls
   // below this value (Ceres' function_tolerance; the reference uses 1e-5).

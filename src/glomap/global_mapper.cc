@@ -87,13 +87,16 @@ GlobalMapper::GlobalMapper(GlobalMapperOptions options)
   options_.global_positioning.num_threads = options_.num_threads;
   options_.bundle_adjustment.num_threads = options_.num_threads;
   // The bundle adjustment after retriangulation is one joint round with the
-  // same solver settings as the rounds before it (one set of ba_* options).
+  // solver settings of the rounds before it (one set of ba_* options), and
+  // its own iteration cap.
   GlobalBundleAdjustmentOptions& final_ba =
       options_.retriangulation.bundle_adjustment;
   final_ba = options_.bundle_adjustment;
   final_ba.num_rounds = 1;
   final_ba.skip_fixed_rotation_stage = true;
   final_ba.skip_joint_stage = false;
+  final_ba.max_num_iterations =
+      options_.retriangulation.final_ba_max_num_iterations;
 }
 
 Status GlobalMapper::Run(const std::string& database_path,

@@ -82,7 +82,8 @@ bool RetriangulationOptions::Check() const {
          continue_max_angle_error_deg > 0 && min_angle_deg >= 0 &&
          max_refinements >= 0 && max_refinement_change >= 0 &&
          max_num_structure_iterations >= 1 && filter_max_reproj_error_px > 0 &&
-         filter_min_tri_angle_deg >= 0 && bundle_adjustment.Check();
+         filter_min_tri_angle_deg >= 0 && final_ba_max_num_iterations >= 1 &&
+         bundle_adjustment.Check();
 }
 
 Status Retriangulate(const RetriangulationOptions& options,
@@ -137,6 +138,7 @@ Status Retriangulate(const RetriangulationOptions& options,
   size_t num_pairs = 0;
   for (const auto& [pair_id, pair] : view_graph.Pairs()) {
     if (pair.matches.size() < static_cast<size_t>(options.min_num_matches) ||
+        (options.use_only_valid_pairs && !pair.is_valid) ||
         registered.count(pair.image_id1) == 0 ||
         registered.count(pair.image_id2) == 0) {
       continue;

@@ -19,6 +19,9 @@ struct RetriangulationOptions {
   // earlier stage invalidated them: with known poses the triangulator's own
   // checks reject wrong matches.
   int min_num_matches = 15;
+  // Use only the pairs that every earlier stage kept (relative pose, rotation
+  // consistency) instead of all database pairs.
+  bool use_only_valid_pairs = false;
 
   // Triangulator thresholds (colmap::IncrementalTriangulator::Options). The
   // completion and merge limits are looser than COLMAP's 4 px because the
@@ -48,6 +51,12 @@ struct RetriangulationOptions {
   // points) using `bundle_adjustment`. Defaults to one joint round: poses
   // are already good, so the rotation-fixed solve is skipped.
   bool run_bundle_adjustment = true;
+  // Iteration cap of that final bundle adjustment (the global mapper copies
+  // its other settings from the BA rounds). It starts from converged poses,
+  // so its first iterations bring most of the gain: on KITTI_sequence_1 a
+  // cap of 15 instead of 30 (with 40 instead of 30 in the rounds before)
+  // takes 16 s instead of 20 s and gives 1.17 cm instead of 1.22 cm.
+  int final_ba_max_num_iterations = 15;
   GlobalBundleAdjustmentOptions bundle_adjustment = [] {
     GlobalBundleAdjustmentOptions ba_options;
     ba_options.num_rounds = 1;
