@@ -19,9 +19,9 @@ TEST(ColmapBinary, HelpListsOurCommands) {
   EXPECT_NE(output.find("global_mapper"), std::string::npos) << output;
   EXPECT_NE(output.find("model_evaluator"), std::string::npos) << output;
   // A few stock commands, to be sure the table is otherwise intact.
-  for (const char* command : {"feature_extractor", "exhaustive_matcher",
-                              "mapper", "hierarchical_mapper",
-                              "model_analyzer", "model_converter", "gui"}) {
+  for (const char* command :
+       {"feature_extractor", "exhaustive_matcher", "mapper",
+        "hierarchical_mapper", "model_analyzer", "model_converter", "gui"}) {
     EXPECT_NE(output.find(command), std::string::npos) << command;
   }
 }
@@ -57,15 +57,14 @@ TEST(ColmapBinary, StockPipelineOnRealImages) {
       << log;
   const std::string sparse = dir + "/sparse";
   fs::create_directories(sparse);
-  ASSERT_EQ(RunCommand(colmap + " mapper --database_path " + database_path +
-                           " --image_path " + image_path + " --output_path " +
-                           sparse,
-                       &log),
-            0)
+  ASSERT_EQ(
+      RunCommand(colmap + " mapper --database_path " + database_path +
+                     " --image_path " + image_path + " --output_path " + sparse,
+                 &log),
+      0)
       << log;
-  ASSERT_EQ(RunCommand(colmap + " model_analyzer --path " + sparse + "/0",
-                       &log),
-            0)
+  ASSERT_EQ(
+      RunCommand(colmap + " model_analyzer --path " + sparse + "/0", &log), 0)
       << log;
   EXPECT_NE(log.find("Registered images: 8"), std::string::npos) << log;
 
@@ -76,9 +75,9 @@ TEST(ColmapBinary, StockPipelineOnRealImages) {
                        &log),
             0)
       << log;
-  ASSERT_EQ(RunCommand(colmap + " model_analyzer --path " + dir + "/global/0",
-                       &log),
-            0)
+  ASSERT_EQ(
+      RunCommand(colmap + " model_analyzer --path " + dir + "/global/0", &log),
+      0)
       << log;
   EXPECT_NE(log.find("Registered images: 8"), std::string::npos) << log;
 }

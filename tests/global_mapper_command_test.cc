@@ -106,19 +106,19 @@ TEST(GlobalMapperCommand, StockColmapReadsOurModel) {
   const std::string output_path = project.dir + "/sparse";
   std::string log;
   ASSERT_EQ(RunCommand(MapperCommand(project, output_path), &log), 0) << log;
-  ASSERT_EQ(RunCommand(stock + " model_analyzer --path " + output_path + "/0",
-                       &log),
-            0)
+  ASSERT_EQ(
+      RunCommand(stock + " model_analyzer --path " + output_path + "/0", &log),
+      0)
       << log;
   EXPECT_NE(log.find("Registered images: 12"), std::string::npos) << log;
   EXPECT_EQ(log.find("Mean reprojection error: -1"), std::string::npos) << log;
   const std::string text_path = project.dir + "/text";
   fs::create_directories(text_path);
-  ASSERT_EQ(RunCommand(stock + " model_converter --input_path " +
-                           output_path + "/0 --output_path " + text_path +
-                           " --output_type TXT",
-                       &log),
-            0)
+  ASSERT_EQ(
+      RunCommand(stock + " model_converter --input_path " + output_path +
+                     "/0 --output_path " + text_path + " --output_type TXT",
+                 &log),
+      0)
       << log;
   colmap::Reconstruction text_model;
   text_model.ReadText(text_path);
@@ -151,9 +151,8 @@ TEST(GlobalMapperCommand, BadInputGivesOneLineError) {
     const std::string stderr_path = dir + "/stderr.txt";
     const int code = RunCommand(
         ColmapExecutable() + " global_mapper --database_path " +
-        c.database_path + " --image_path " + c.image_path +
-        " --output_path " + c.output_path + " 2>" + stderr_path +
-        " >/dev/null");
+        c.database_path + " --image_path " + c.image_path + " --output_path " +
+        c.output_path + " 2>" + stderr_path + " >/dev/null");
     std::ifstream stderr_file(stderr_path);
     const std::string log((std::istreambuf_iterator<char>(stderr_file)),
                           std::istreambuf_iterator<char>());
@@ -172,10 +171,10 @@ TEST(GlobalMapperCommand, ReadsStockProjectFile) {
   const Project project = MakeProject("command_project_file");
   const std::string ini = project.dir + "/project.ini";
   std::string log;
-  ASSERT_EQ(RunCommand(ColmapExecutable() + " project_generator --output_path " +
-                           ini,
-                       &log),
-            0)
+  ASSERT_EQ(
+      RunCommand(ColmapExecutable() + " project_generator --output_path " + ini,
+                 &log),
+      0)
       << log;
   // project_generator leaves the paths empty; set them as a user would.
   std::ifstream in(ini);
@@ -188,9 +187,8 @@ TEST(GlobalMapperCommand, ReadsStockProjectFile) {
   in.close();
   std::ofstream(ini) << content;
   const std::string output_path = project.dir + "/sparse";
-  ASSERT_EQ(RunCommand(ColmapExecutable() +
-                           " global_mapper --project_path " + ini +
-                           " --output_path " + output_path,
+  ASSERT_EQ(RunCommand(ColmapExecutable() + " global_mapper --project_path " +
+                           ini + " --output_path " + output_path,
                        &log),
             0)
       << log;

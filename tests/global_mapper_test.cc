@@ -79,8 +79,7 @@ TEST_P(GlobalMapperSynthetic, TwoHundredImagesNoiseAndOutliers) {
   // verification (COLMAP's estimators) fast.
   scene.max_pairs_per_image = 10;
   colmap::Reconstruction truth;
-  ASSERT_TRUE(
-      WriteSyntheticScene(scene, dir + "/database.db", &truth).ok());
+  ASSERT_TRUE(WriteSyntheticScene(scene, dir + "/database.db", &truth).ok());
 
   const RunResult result = RunMapper(dir + "/database.db");
   ASSERT_TRUE(result.status.ok()) << result.status.message();
@@ -96,13 +95,14 @@ TEST_P(GlobalMapperSynthetic, TwoHundredImagesNoiseAndOutliers) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Synthetic, GlobalMapperSynthetic,
-    ::testing::Values(SyntheticCase{true}, SyntheticCase{false}),
-    [](const auto& info) {
-      return std::string(info.param.prior_focal_length ? "KnownFocal"
-                                                       : "UnknownFocal");
-    });
+INSTANTIATE_TEST_SUITE_P(Synthetic, GlobalMapperSynthetic,
+                         ::testing::Values(SyntheticCase{true},
+                                           SyntheticCase{false}),
+                         [](const auto& info) {
+                           return std::string(info.param.prior_focal_length
+                                                  ? "KnownFocal"
+                                                  : "UnknownFocal");
+                         });
 
 TEST(GlobalMapper, SameSeedSameModel) {
   const std::string dir = testing::CreateTestDir("global_mapper_determinism");
@@ -163,10 +163,11 @@ TEST_P(GlobalMapperRealData, MatchesReferenceMappers) {
                             &evaluation)
                   .ok());
   std::cout << c.name << ": registered " << evaluation.num_registered << "/"
-            << evaluation.num_gt_images << ", AUC@1/3/5/10 " << evaluation.pose_aucs[0]
-            << " " << evaluation.pose_aucs[1] << " " << evaluation.pose_aucs[2] << " "
-            << evaluation.pose_aucs[3] << ", position error mean "
-            << evaluation.position_error_mean << std::endl;
+            << evaluation.num_gt_images << ", AUC@1/3/5/10 "
+            << evaluation.pose_aucs[0] << " " << evaluation.pose_aucs[1] << " "
+            << evaluation.pose_aucs[2] << " " << evaluation.pose_aucs[3]
+            << ", position error mean " << evaluation.position_error_mean
+            << std::endl;
   EXPECT_EQ(evaluation.num_registered, static_cast<int>(c.num_images));
   if (c.absolute_max_pos_err > 0) {
     EXPECT_LE(evaluation.position_error_mean, c.absolute_max_pos_err);

@@ -200,9 +200,9 @@ int RunGlobalMapper(int argc, char** argv) {
   if (!error.empty()) return Fail(error);
   for (size_t k = 0; k < reconstruction_manager.Size(); ++k) {
     const auto& model = reconstruction_manager.Get(k);
-    std::cout << "Model " << k << ": " << model.NumRegImages()
-              << " images, " << model.NumPoints3D() << " points -> "
-              << output_path << "/" << k << std::endl;
+    std::cout << "Model " << k << ": " << model.NumRegImages() << " images, "
+              << model.NumPoints3D() << " points -> " << output_path << "/" << k
+              << std::endl;
   }
   return EXIT_SUCCESS;
 }

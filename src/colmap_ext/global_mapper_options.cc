@@ -71,8 +71,7 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("rp_max_num_trials", &rp.max_num_trials, "Maximum RANSAC trials");
   b.Add("rp_min_num_trials", &rp.min_num_trials, "Minimum RANSAC trials");
   b.Add("rp_confidence", &rp.confidence, "RANSAC confidence");
-  b.Add("rp_max_num_refinement_iterations",
-        &rp.max_num_refinement_iterations,
+  b.Add("rp_max_num_refinement_iterations", &rp.max_num_refinement_iterations,
         "Iterations of the relative-pose refinement");
   b.Add("rp_max_num_refinement_points", &rp.max_num_refinement_points,
         "Matches used by the relative-pose refinement");
@@ -179,8 +178,8 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Pairs with fewer matches are not used");
   b.Add("tri_use_only_valid_pairs", &tri.use_only_valid_pairs,
         "Triangulate only from pairs kept by the earlier stages");
-  b.Add("tri_complete_max_reproj_error_px",
-        &tri.complete_max_reproj_error_px, "Track completion threshold [px]");
+  b.Add("tri_complete_max_reproj_error_px", &tri.complete_max_reproj_error_px,
+        "Track completion threshold [px]");
   b.Add("tri_merge_max_reproj_error_px", &tri.merge_max_reproj_error_px,
         "Track merging threshold [px]");
   b.Add("tri_create_max_angle_error_deg", &tri.create_max_angle_error_deg,
@@ -193,8 +192,7 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Maximum refinement iterations");
   b.Add("tri_max_refinement_change", &tri.max_refinement_change,
         "Stop refining once fewer observations change");
-  b.Add("tri_max_num_structure_iterations",
-        &tri.max_num_structure_iterations,
+  b.Add("tri_max_num_structure_iterations", &tri.max_num_structure_iterations,
         "Iterations of each structure-only adjustment");
   b.Add("tri_filter_max_reproj_error_px", &tri.filter_max_reproj_error_px,
         "Reprojection-error filter [px]");
@@ -245,8 +243,9 @@ bool ReadGlobalMapperOptionsFile(const std::string& path,
   if (!section) return true;
   std::vector<GlobalMapperOptionEntry> table = GlobalMapperOptionTable(options);
   for (const auto& [key, node] : *section) {
-    auto it = std::find_if(table.begin(), table.end(),
-                           [&key = key](const auto& e) { return e.key == key; });
+    auto it =
+        std::find_if(table.begin(), table.end(),
+                     [&key = key](const auto& e) { return e.key == key; });
     if (it == table.end()) {
       LOG(WARNING) << path << ": unknown option GlobalMapper." << key;
       continue;
@@ -280,9 +279,7 @@ bool WriteGlobalMapperOptionsFile(const std::string& path,
   boost::property_tree::ptree tree;
   for (const auto& entry : GlobalMapperOptionTable(&copy)) {
     std::visit(
-        [&](auto* value) {
-          tree.put("GlobalMapper." + entry.key, *value);
-        },
+        [&](auto* value) { tree.put("GlobalMapper." + entry.key, *value); },
         entry.value);
   }
   try {

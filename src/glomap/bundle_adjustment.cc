@@ -1,7 +1,5 @@
 #include "glomap/bundle_adjustment.h"
 
-#include "util/logging.h"
-
 #include <ceres/ceres.h>
 
 #include <algorithm>
@@ -14,29 +12,14 @@
 
 #include "base/camera_models.h"
 #include "base/cost_functions.h"
+#include "glomap/ceres_interrupt.h"
 #include "glomap/track_filters.h"
 #include "optim/bundle_adjustment.h"
+#include "util/logging.h"
 #include "util/threading.h"
 
 namespace glomap {
 namespace {
-
-// Stops a Ceres solve at the end of the current iteration once the user
-// cancels (as COLMAP's BundleAdjustmentController does for pausing).
-class InterruptCallback : public ceres::IterationCallback {
- public:
-  explicit InterruptCallback(const Interrupt& interrupt)
-      : interrupt_(interrupt) {}
-
-  ceres::CallbackReturnType operator()(
-      const ceres::IterationSummary& /*summary*/) override {
-    return interrupt_.IsStopped() ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
-                                  : ceres::SOLVER_CONTINUE;
-  }
-
- private:
-  const Interrupt& interrupt_;
-};
 
 // COLMAP 3.8 has no automatic gauge. With one image's pose fixed, the
 // remaining freedom is the scale (for the joint solve; with all rotations
@@ -244,11 +227,11 @@ Status Solve(const colmap::BundleAdjustmentOptions& ba_options,
       } else {
         ceres::CostFunction* cost_function = nullptr;
         switch (camera.ModelId()) {
-#define CAMERA_MODEL_CASE(CameraModel)                                   \
-  case colmap::CameraModel::kModelId:                                    \
-    cost_function =                                                      \
+#define CAMERA_MODEL_CASE(CameraModel)                                     \
+  case colmap::CameraModel::kModelId:                                      \
+    cost_function =                                                        \
         colmap::BundleAdjustmentCostFunction<colmap::CameraModel>::Create( \
-            point2D.XY());                                               \
+            point2D.XY());                                                 \
     break;
           CAMERA_MODEL_SWITCH_CASES
 #undef CAMERA_MODEL_CASE

@@ -13,6 +13,7 @@
 
 #include "base/camera.h"
 #include "base/image.h"
+#include "glomap/ceres_interrupt.h"
 #include "glomap/track_filters.h"
 #include "util/timer.h"
 
@@ -58,20 +59,6 @@ class RayResidual : public ceres::SizedCostFunction<3, 3, 3, 1> {
 
  private:
   const Eigen::Vector3d ray_in_world_;
-};
-
-class InterruptCallback : public ceres::IterationCallback {
- public:
-  explicit InterruptCallback(const Interrupt& interrupt)
-      : interrupt_(interrupt) {}
-  ceres::CallbackReturnType operator()(
-      const ceres::IterationSummary&) override {
-    return interrupt_.IsStopped() ? ceres::SOLVER_ABORT
-                                  : ceres::SOLVER_CONTINUE;
-  }
-
- private:
-  const Interrupt& interrupt_;
 };
 
 struct Observation {

@@ -1,7 +1,5 @@
 #include "glomap/retriangulation.h"
 
-#include "util/logging.h"
-
 #include <algorithm>
 #include <chrono>
 #include <iostream>
@@ -10,28 +8,15 @@
 
 #include "base/correspondence_graph.h"
 #include "base/database_cache.h"
+#include "glomap/ceres_interrupt.h"
 #include "glomap/track_filters.h"
 #include "optim/bundle_adjustment.h"
 #include "sfm/incremental_triangulator.h"
+#include "util/logging.h"
 #include "util/threading.h"
 
 namespace glomap {
 namespace {
-
-class InterruptCallback : public ceres::IterationCallback {
- public:
-  explicit InterruptCallback(const Interrupt& interrupt)
-      : interrupt_(interrupt) {}
-
-  ceres::CallbackReturnType operator()(
-      const ceres::IterationSummary& /*summary*/) override {
-    return interrupt_.IsStopped() ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
-                                  : ceres::SOLVER_CONTINUE;
-  }
-
- private:
-  const Interrupt& interrupt_;
-};
 
 colmap::IncrementalTriangulator::Options TriangulatorOptions(
     const RetriangulationOptions& options) {

@@ -84,10 +84,9 @@ std::vector<std::vector<colmap::image_t>> ViewGraph::ConnectedComponents()
   std::vector<std::vector<colmap::image_t>> components;
   for (auto& [root, members] : by_root) components.push_back(members);
   // Largest first; equal sizes keep the order of their smallest image id.
-  std::stable_sort(components.begin(), components.end(),
-                   [](const auto& a, const auto& b) {
-                     return a.size() > b.size();
-                   });
+  std::stable_sort(
+      components.begin(), components.end(),
+      [](const auto& a, const auto& b) { return a.size() > b.size(); });
   return components;
 }
 

@@ -4,11 +4,10 @@
 // stage iterates them in the same order on every run (determinism).
 #pragma once
 
+#include <Eigen/Core>
 #include <map>
 #include <unordered_set>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "feature/types.h"
 #include "util/types.h"
