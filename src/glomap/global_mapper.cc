@@ -7,6 +7,7 @@
 
 #include "glomap/track_filters.h"
 #include "util/logging.h"
+#include "util/misc.h"
 #include "util/timer.h"
 
 namespace glomap {
@@ -49,6 +50,29 @@ std::string Counts(std::initializer_list<std::pair<const char*, size_t>> kv) {
     first = false;
   }
   return out.str();
+}
+
+// Point colours from the images that exist: the database is all the mapper
+// needs, and projects often come without (some of) their images, for which
+// COLMAP would print one warning per image.
+void ExtractColors(const std::string& image_path,
+                   colmap::Reconstruction* model) {
+  size_t num_read = 0;
+  std::vector<colmap::image_t> image_ids = model->RegImageIds();
+  std::sort(image_ids.begin(), image_ids.end());
+  for (const colmap::image_t image_id : image_ids) {
+    const std::string path =
+        colmap::JoinPaths(image_path, model->Image(image_id).Name());
+    if (colmap::ExistsFile(path) &&
+        model->ExtractColorsForImage(image_id, image_path)) {
+      ++num_read;
+    }
+  }
+  if (num_read < image_ids.size()) {
+    LOG(WARNING) << "Point colours from " << num_read << " of "
+                 << image_ids.size() << " images (the others are not in "
+                 << image_path << ").";
+  }
 }
 
 }  // namespace
@@ -257,9 +281,8 @@ Status GlobalMapper::Run(const std::string& database_path,
           clusters.size() == 1 ? *work : ExtractCluster(*work, cluster);
       model.Normalize();
       UpdatePointErrors(&model);
-      if (!options_.image_path.empty()) {
-        model.ExtractColorsForAllImages(options_.image_path);
-      }
+      if (!options_.image_path.empty())
+        ExtractColors(options_.image_path, &model);
       models->push_back(std::move(model));
     }
     if (models->empty()) {
