@@ -211,12 +211,8 @@ void GlobalReconstructionUi::Run() {
     window_->ShowInvalidProjectError();
     return;
   }
-  // The checks and messages of `colmap global_mapper`.
-  const std::string database_path = *window_->options_.database_path;
-  if (!ExistsFile(database_path)) {
-    ShowError("Database " + database_path + " does not exist.");
-    return;
-  }
+  // A missing or unreadable database is reported by the pipeline's database
+  // reader, through the run's status, as on the command line.
   glomap::GlobalMapperOptions options = options_;
   options.image_path = *window_->options_.image_path;
   if (!options.Check()) {
@@ -228,7 +224,8 @@ void GlobalReconstructionUi::Run() {
 
   if (controller_) controller_->Wait();
   controller_ = std::make_unique<glomap::GlobalMapperController>(
-      options, database_path, &window_->reconstruction_manager_);
+      options, *window_->options_.database_path,
+      &window_->reconstruction_manager_);
   glomap::GlobalMapperController* controller = controller_.get();
   controller->AddCallback(
       glomap::GlobalMapperController::STAGE_CALLBACK, [this]() {
