@@ -377,6 +377,8 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
       phi = 1.0;
       continue;
     }
+    VLOG(1) << "View-graph calibration: camera " << camera_id << " focal "
+            << camera.MeanFocalLength() << " -> " << new_focal << " px";
     for (const size_t idx : camera.FocalLengthIdxs()) {
       camera.Params(idx) = new_focal;
     }
