@@ -115,6 +115,18 @@ std::vector<int> ConstantCameraParams(
   return constant_params;
 }
 
+// Pixel residual of a point given in camera coordinates, as in COLMAP's
+// cost functions.
+template <typename CameraModel, typename T>
+void ReprojectionResidual(const T* point_in_cam, const T* camera_params,
+                          double observed_x, double observed_y, T* residuals) {
+  CameraModel::WorldToImage(camera_params, point_in_cam[0] / point_in_cam[2],
+                            point_in_cam[1] / point_in_cam[2], &residuals[0],
+                            &residuals[1]);
+  residuals[0] -= T(observed_x);
+  residuals[1] -= T(observed_y);
+}
+
 // Reprojection error with the world-to-camera rotation held fixed, on the
 // parameter blocks (tvec, point, camera params). Same model as COLMAP's
 // BundleAdjustmentCostFunction, without the quaternion block: the solve
@@ -143,11 +155,8 @@ class FixedRotationCostFunction {
                         T(rotation_(r, 1)) * point3D[1] +
                         T(rotation_(r, 2)) * point3D[2] + tvec[r];
     }
-    CameraModel::WorldToImage(camera_params, point_in_cam[0] / point_in_cam[2],
-                              point_in_cam[1] / point_in_cam[2], &residuals[0],
-                              &residuals[1]);
-    residuals[0] -= T(observed_x_);
-    residuals[1] -= T(observed_y_);
+    ReprojectionResidual<CameraModel>(point_in_cam, camera_params, observed_x_,
+                                      observed_y_, residuals);
     return true;
   }
 
@@ -185,11 +194,8 @@ class PoseCostFunction {
     point_in_cam[0] += pose[4];
     point_in_cam[1] += pose[5];
     point_in_cam[2] += pose[6];
-    CameraModel::WorldToImage(camera_params, point_in_cam[0] / point_in_cam[2],
-                              point_in_cam[1] / point_in_cam[2], &residuals[0],
-                              &residuals[1]);
-    residuals[0] -= T(observed_x_);
-    residuals[1] -= T(observed_y_);
+    ReprojectionResidual<CameraModel>(point_in_cam, camera_params, observed_x_,
+                                      observed_y_, residuals);
     return true;
   }
 
