@@ -245,6 +245,15 @@ void ChooseLinearSolver(size_t num_images,
   }
 }
 
+// GlobalBundleAdjustmentOptions::function_tolerance, scaled for the number
+// of images.
+double ScaledFunctionTolerance(double function_tolerance, size_t num_images) {
+  constexpr double kReferenceNumImages = 50;
+  const double ratio =
+      std::min(1.0, kReferenceNumImages / static_cast<double>(num_images));
+  return function_tolerance * ratio * ratio;
+}
+
 // One Ceres problem for both stages. COLMAP 3.8's BundleAdjustmentConfig can
 // hold a whole pose constant but not the rotation alone, so in the
 // rotation-fixed solve rotations are not parameters at all; in the joint
@@ -353,6 +362,8 @@ Status Solve(const colmap::BundleAdjustmentOptions& ba_options,
 
   ceres::Solver::Options solver_options = ba_options.solver_options;
   ChooseLinearSolver(image_ids.size(), &solver_options);
+  solver_options.function_tolerance = ScaledFunctionTolerance(
+      ba_options.solver_options.function_tolerance, image_ids.size());
   if (problem.NumResiduals() <
       ba_options.min_num_residuals_for_multi_threading) {
     solver_options.num_threads = 1;

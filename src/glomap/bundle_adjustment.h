@@ -37,8 +37,16 @@ struct GlobalBundleAdjustmentOptions {
   // letting later solves continue is faster than running one to the end.
   int max_num_iterations = 40;
 
-  // A solve stops once the relative cost decrease of an iteration falls
-  // below this value (Ceres' function_tolerance; the reference uses 1e-5).
+  // A solve of up to 50 images stops once the relative cost decrease of an
+  // iteration falls below this value (Ceres' function_tolerance; the
+  // reference uses 1e-5). For N > 50 images the tolerance is multiplied by
+  // (50 / N)^2: a large block deforms smoothly (a bend over the whole
+  // survey) at almost no reprojection cost, so that mode converges with tiny
+  // relative decreases that a fixed tolerance mistakes for convergence. On a
+  // 500-image synthetic survey, 1e-5 stopped after 8 iterations at a median
+  // pairwise rotation error of 1.06 deg (AUC@3 64%); 1e-7 reached 0.13 deg
+  // (AUC@3 95%). On the shared datasets (<= 51 images) a smaller tolerance
+  // only adds iterations.
   double function_tolerance = 1e-5;
 
   // Which groups of intrinsic parameters are refined (all cameras).
