@@ -14,6 +14,7 @@
 #include "base/camera_models.h"
 #include "base/cost_functions.h"
 #include "glomap/ceres_interrupt.h"
+#include "glomap/ceres_threads.h"
 #include "glomap/track_filters.h"
 #include "optim/bundle_adjustment.h"
 #include "util/logging.h"
@@ -364,10 +365,8 @@ Status Solve(const colmap::BundleAdjustmentOptions& ba_options,
   ChooseLinearSolver(image_ids.size(), &solver_options);
   solver_options.function_tolerance = ScaledFunctionTolerance(
       ba_options.solver_options.function_tolerance, image_ids.size());
-  if (problem.NumResiduals() <
-      ba_options.min_num_residuals_for_multi_threading) {
-    solver_options.num_threads = 1;
-  }
+  solver_options.num_threads = CeresNumThreads(
+      ba_options.solver_options.num_threads, problem.NumResidualBlocks());
   std::string solver_error;
   if (!solver_options.IsValid(&solver_error)) {
     return Status::Error("Invalid Ceres options: " + solver_error);

@@ -7,13 +7,13 @@
 #include <cmath>
 #include <memory>
 #include <random>
-#include <thread>
 #include <unordered_map>
 #include <vector>
 
 #include "base/camera.h"
 #include "base/image.h"
 #include "glomap/ceres_interrupt.h"
+#include "glomap/ceres_threads.h"
 #include "glomap/track_filters.h"
 #include "util/timer.h"
 
@@ -242,9 +242,7 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
   solver_options.max_num_iterations = options.max_num_iterations;
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.num_threads =
-      options.num_threads > 0
-          ? options.num_threads
-          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+      CeresNumThreads(options.num_threads, problem.NumResidualBlocks());
   solver_options.logging_type = ceres::SILENT;
   InterruptCallback interrupt_callback(interrupt);
   solver_options.callbacks.push_back(&interrupt_callback);

@@ -9,6 +9,7 @@
 #include "base/correspondence_graph.h"
 #include "base/database_cache.h"
 #include "glomap/ceres_interrupt.h"
+#include "glomap/ceres_threads.h"
 #include "glomap/track_filters.h"
 #include "optim/bundle_adjustment.h"
 #include "sfm/incremental_triangulator.h"
@@ -186,8 +187,6 @@ Status Retriangulate(const RetriangulationOptions& options,
   ba_options.solver_options.max_num_iterations =
       options.max_num_structure_iterations;
   ba_options.solver_options.gradient_tolerance = 1.0;  // COLMAP's global BA.
-  ba_options.solver_options.num_threads =
-      colmap::GetEffectiveNumThreads(options.bundle_adjustment.num_threads);
   ba_options.solver_options.logging_type = ceres::SILENT;
   ba_options.solver_options.callbacks.push_back(&callback);
   colmap::BundleAdjustmentConfig ba_config;
@@ -199,6 +198,8 @@ Status Retriangulate(const RetriangulationOptions& options,
     work.FilterObservationsWithNegativeDepth();
     const size_t num_observations = work.ComputeNumObservations();
     if (num_observations == 0) break;
+    ba_options.solver_options.num_threads = CeresNumThreads(
+        options.bundle_adjustment.num_threads, num_observations);
     colmap::BundleAdjuster bundle_adjuster(ba_options, ba_config);
     if (!bundle_adjuster.Solve(&work)) break;
     if (interrupt.IsStopped()) return Status::Cancelled();

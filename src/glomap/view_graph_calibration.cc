@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "estimators/two_view_geometry.h"
+#include "glomap/ceres_threads.h"
 #include "util/threading.h"
 
 namespace glomap {
@@ -334,7 +335,7 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
   solver_options.max_num_iterations = options.max_num_iterations;
   solver_options.function_tolerance = 1e-5;
   solver_options.num_threads =
-      colmap::GetEffectiveNumThreads(options.num_threads);
+      CeresNumThreads(options.num_threads, problem.NumResidualBlocks());
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
   // One scalar per camera: dense is exact and robust for small problems
