@@ -11,13 +11,30 @@ peak memory, registered images, mean reprojection error and mean track length
 model_evaluator`: pairwise pose AUC at 1/3/5/10 degrees, camera position
 errors).
 
+With --seeds, our global mapper runs once per seed
+(`--GlobalMapper.random_seed`); the stock mapper runs once per dataset. The
+main table then shows, for ours, the median over the seeds (and the spread).
+
+A "bars" table checks every run of ours against the acceptance bars of issue
+10: all images registered; AUC@3 at least the better of the reference mappers'
+figures in the dataset's README minus 0.5; no registered camera farther than
+5% of the scene size from ground truth (`cameras_beyond` of model_evaluator);
+KITTI_sequence_1 a mean position error of at most 0.02 m. On a dataset whose
+README has the stock `mapper` but no upstream `global_mapper` figures
+(dino-363), or one named by --stock_relative, the bars are relative to the
+stock mapper of the same benchmark run instead: every image it registers is
+registered by ours, AUC@3 at most 1 point below it, at most half its time
+(the README's stock figures stand in when the stock mapper was skipped).
+
 Writes to --output_dir: results.json, results.md (Markdown tables),
 runtime_per_stage.png and auc_per_dataset.png (gnuplot). With --readme, also
 replaces the benchmark section of the README and copies the AUC plot next to
 it.
 
 Regenerate the README's figures with:
-    python3 scripts/benchmark.py --readme README.md
+    python3 scripts/benchmark.py --seeds 0,1,2,3,4 --readme README.md
+
+Check the script's own logic (no colmap needed): --self_test.
 
 Only the Python standard library is used (gnuplot draws the plots).
 """
@@ -28,9 +45,14 @@ import json
 import os
 import platform
 import re
+import shlex
 import shutil
+import sqlite3
+import statistics
+import struct
 import subprocess
 import sys
+import tempfile
 import time
 
 REPO_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -49,6 +71,30 @@ STAGE_COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
 # The README section that --readme replaces.
 README_BEGIN = "<!-- benchmark:begin -->"
 README_END = "<!-- benchmark:end -->"
+
+# Acceptance bars (issue 10).
+# AUC@3 at least the better reference mapper's figure minus this.
+AUC_BAR_MARGIN = 0.5
+# Stock-relative datasets (dino-363): AUC@3 at least the stock mapper's minus
+# this, in at most this fraction of its wall time.
+STOCK_AUC_MARGIN = 1.0
+STOCK_TIME_RATIO = 0.5
+# model_evaluator's default of --max_position_error_fraction; the bar allows
+# no registered camera farther than this fraction of the scene size.
+BEYOND_FRACTION = 0.05
+# Per-dataset maximum mean position error, in ground-truth units.
+MAX_POSITION_ERROR = {"KITTI_sequence_1": 0.02}
+# Value of a "not applicable" bar (True: met, False: failed, None: could not
+# be checked).
+NOT_APPLICABLE = "n/a"
+
+# The global mapper's last line, e.g. "Global mapper finished in 12.3 s: 1
+# model(s), 47 of 47 images registered; pose verification re-placed 0 and
+# left out 0 image(s)." (older binaries end after "registered").
+FINISH_RE = re.compile(
+    r"Global mapper finished in\s+([0-9.]+)\s*s:\s*(\d+)\s+model\(s\),\s*"
+    r"(\d+)\s+of\s+(\d+)\s+images registered"
+    r"(?:;\s*pose verification re-placed\s+(\d+)\s+and left out\s+(\d+))?")
 
 # Tolerant match of the global mapper's stage lines, e.g.
 # "Stage rotation_averaging: 1.23 s (...)" or "Stage Rotation averaging : 1.2s"
@@ -183,6 +229,164 @@ def parse_stages(log_path):
     return stages
 
 
+def parse_finish(log_path):
+    """The counts of the global mapper's final log line (empty if absent)."""
+    found = {}
+    with open(log_path, errors="replace") as f:
+        for line in f:
+            match = FINISH_RE.search(line)
+            if match:
+                found = {"mapper_seconds": float(match.group(1)),
+                         "models": int(match.group(2))}
+                if match.group(5) is not None:
+                    found["replaced_images"] = int(match.group(5))
+                    found["left_out_images"] = int(match.group(6))
+    return found
+
+
+def count_db_images(database):
+    """Images in a database (a copy: sqlite may touch the file); None if it
+    cannot be read."""
+    try:
+        connection = sqlite3.connect(database)
+        try:
+            return connection.execute(
+                "SELECT COUNT(*) FROM images").fetchone()[0]
+        finally:
+            connection.close()
+    except sqlite3.Error:
+        return None
+
+
+def read_image_names_bin(path):
+    """Image names of a COLMAP images.bin."""
+    names = []
+    with open(path, "rb") as f:
+        (count,) = struct.unpack("<Q", f.read(8))
+        for _ in range(count):
+            # image id, qvec, tvec, camera id
+            if len(f.read(4 + 7 * 8 + 4)) != 64:
+                raise ValueError("truncated " + path)
+            name = bytearray()
+            while True:
+                char = f.read(1)
+                if not char:
+                    raise ValueError("truncated " + path)
+                if char == b"\0":
+                    break
+                name += char
+            (num_points,) = struct.unpack("<Q", f.read(8))
+            f.seek(24 * num_points, os.SEEK_CUR)
+            names.append(name.decode("utf-8"))
+    return names
+
+
+def read_image_names_txt(path):
+    """Image names of a COLMAP images.txt: after the comments, two lines per
+    image (the second, its 2-D points, may be empty)."""
+    with open(path, errors="replace") as f:
+        lines = f.read().split("\n")
+    first = 0
+    while first < len(lines) and lines[first].startswith("#"):
+        first += 1
+    names = []
+    for line in lines[first::2]:
+        fields = line.strip().split(None, 9)
+        if len(fields) == 10:
+            names.append(fields[9])
+    return names
+
+
+def read_image_names(colmap, model_path):
+    """Set of the registered images' names of a model; None if unreadable.
+    A binary model is read directly, or else converted with `colmap
+    model_converter --output_type TXT` into a temporary folder."""
+    if not model_path:
+        return None
+    text_path = os.path.join(model_path, "images.txt")
+    if os.path.isfile(text_path):
+        return set(read_image_names_txt(text_path))
+    bin_path = os.path.join(model_path, "images.bin")
+    if not os.path.isfile(bin_path):
+        return None
+    try:
+        return set(read_image_names_bin(bin_path))
+    except (OSError, ValueError, struct.error, UnicodeDecodeError):
+        pass
+    with tempfile.TemporaryDirectory() as tmp:
+        code, _ = capture([colmap, "model_converter", "--input_path",
+                           model_path, "--output_path", tmp,
+                           "--output_type", "TXT"])
+        text_path = os.path.join(tmp, "images.txt")
+        if code == 0 and os.path.isfile(text_path):
+            return set(read_image_names_txt(text_path))
+    return None
+
+
+def parse_number(cell):
+    """The leading number of a table cell ("8.7s", "90.0"); None for "–",
+    "failed", ... ."""
+    match = re.match(r"\s*(-?[0-9]+(?:\.[0-9]*)?)", cell)
+    return float(match.group(1)) if match else None
+
+
+def parse_reference_text(text):
+    """The reference mappers' figures of a dataset README's table:
+    {"incremental": row, "upstream": row} (either may be missing), each row
+    {"label", "auc@3", "registered": [n, total] or None, "wall_time_s"}.
+    Rows of this project's own runs are ignored. None without such rows."""
+    rows = {}
+    columns = None
+    for line in text.splitlines():
+        line = line.strip()
+        if not line.startswith("|"):
+            columns = None  # A table ends.
+            continue
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        normalized = [c.replace("\\`", "`").replace("°", "").lower()
+                      for c in cells]
+        if columns is None:
+            if any(c.replace(" ", "") == "auc@3" for c in normalized):
+                columns = {c.replace(" ", ""): k
+                           for k, c in enumerate(normalized)}
+            continue
+        if all(re.fullmatch(r":?-+:?", c) for c in cells if c):
+            continue  # The separator row.
+        label = cells[0].replace("\\`", "`")
+        lower = label.lower()
+        if "this project" in lower:
+            continue
+        if "incremental" in lower and "3.8" in lower:
+            key = "incremental"
+        elif "global_mapper" in lower and ("upstream" in lower
+                                           or "4.1" in lower):
+            key = "upstream"
+        else:
+            continue
+
+        def cell(name):
+            k = columns.get(name)
+            return cells[k] if k is not None and k < len(cells) else ""
+
+        registered = re.match(r"\s*(\d+)\s*/\s*(\d+)", cell("registered"))
+        rows[key] = {
+            "label": label,
+            "auc@3": parse_number(cell("auc@3")),
+            "registered": [int(registered.group(1)), int(registered.group(2))]
+            if registered else None,
+            "wall_time_s": parse_number(cell("walltime")),
+        }
+    return rows or None
+
+
+def parse_reference(dataset):
+    path = os.path.join(dataset, "README.md")
+    if not os.path.isfile(path):
+        return None
+    with open(path, errors="replace") as f:
+        return parse_reference_text(f.read())
+
+
 def last_lines(path, count=3):
     with open(path, errors="replace") as f:
         lines = [line.rstrip() for line in f if line.strip()]
@@ -228,10 +432,17 @@ def make_synthetic(args, num_images):
     return path
 
 
-def run_one(args, dataset, mapper, index, total):
+def run_dir_name(mapper, seed):
+    return "global_seed%d" % seed if mapper == "global" else mapper
+
+
+def run_one(args, dataset, mapper, seed, index, total):
+    """One run; seed: --GlobalMapper.random_seed of ours (None for the stock
+    mapper)."""
     name = os.path.basename(dataset)
     command_name = MAPPERS[mapper]
-    work = os.path.join(args.output_dir, "runs", name, mapper)
+    work = os.path.join(args.output_dir, "runs", name,
+                        run_dir_name(mapper, seed))
     if os.path.isdir(work):
         shutil.rmtree(work)
     os.makedirs(work)
@@ -249,9 +460,15 @@ def run_one(args, dataset, mapper, index, total):
 
     record = {"dataset": name, "mapper": mapper, "command": command_name,
               "status": "ok"}
-    log("[%d/%d] %s: %s ..." % (index, total, name, command_name))
+    if seed is not None:
+        record["seed"] = seed
+    record["db_images"] = count_db_images(database)
+    title = command_name + ("" if seed is None else " (seed %d)" % seed)
+    log("[%d/%d] %s: %s ..." % (index, total, name, title))
     command = [args.colmap, command_name, "--database_path", database,
                "--image_path", image_path, "--output_path", output_path]
+    if seed is not None:
+        command += ["--GlobalMapper.random_seed", str(seed)]
     code, wall_s, peak_mb, timed_out = run_measured(command, log_path,
                                                     args.timeout)
     record.update({"wall_time_s": round(wall_s, 3), "peak_rss_mb":
@@ -259,6 +476,7 @@ def run_one(args, dataset, mapper, index, total):
                    "exit_code": code, "log": log_path})
     if mapper == "global":
         record["stages"] = parse_stages(log_path)
+        record.update(parse_finish(log_path))
 
     model_path, analysis = (None, None)
     if timed_out:
@@ -295,9 +513,16 @@ def run_one(args, dataset, mapper, index, total):
         summary += ", %d/%d registered, AUC@3 %.1f" % (
             evaluation["registered"], evaluation["images"],
             evaluation.get("auc@3") or 0.0)
+        if evaluation.get("cameras_beyond") is not None:
+            summary += ", %d camera(s) beyond %g%% of the scene" % (
+                evaluation["cameras_beyond"], 100 * evaluation.get(
+                    "cameras_beyond_fraction", BEYOND_FRACTION))
     elif analysis:
         summary += ", %d registered" % analysis["registered"]
-    log("[%d/%d] %s: %s %s" % (index, total, name, command_name, summary))
+    if record.get("replaced_images") is not None:
+        summary += ", re-placed %d, left out %d" % (
+            record["replaced_images"], record["left_out_images"])
+    log("[%d/%d] %s: %s %s" % (index, total, name, title, summary))
     return record
 
 
@@ -315,39 +540,166 @@ def fmt_error(value):
     return "–" if value is None else "%.4g" % value
 
 
+def fmt_span(values, digits=0):
+    """"3" or "2–5" (min–max) of the non-None values; "–" if none."""
+    values = [v for v in values if v is not None]
+    if not values:
+        return "–"
+    low, high = fmt(min(values), digits), fmt(max(values), digits)
+    return low if low == high else low + "–" + high
+
+
+def fmt_range(values, digits=1):
+    """"min–max" of the non-None values, also when equal."""
+    values = [v for v in values if v is not None]
+    if not values:
+        return "–"
+    return fmt(min(values), digits) + "–" + fmt(max(values), digits)
+
+
+def median(values):
+    values = [v for v in values if v is not None]
+    return statistics.median(values) if values else None
+
+
+def summarize_global(runs):
+    """One record for our mapper's runs of one dataset over the seeds: the
+    median of every number over the successful runs, the maximum of the peak
+    memory, and the runs themselves (for the spread). One run: itself."""
+    if len(runs) == 1:
+        return dict(runs[0], runs=runs)
+    ok_runs = [r for r in runs if r["status"] == "ok"]
+    pool = ok_runs or runs
+    summary = {"dataset": runs[0]["dataset"], "mapper": "global",
+               "command": runs[0].get("command"), "runs": runs,
+               "status": "ok" if ok_runs else runs[0]["status"]}
+    for key in ("wall_time_s", "registered", "points", "mean_track_length",
+                "mean_reproj_error_px", "replaced_images", "left_out_images"):
+        summary[key] = median(r.get(key) for r in pool)
+    peaks = [r["peak_rss_mb"] for r in pool if r.get("peak_rss_mb")
+             is not None]
+    summary["peak_rss_mb"] = max(peaks) if peaks else None
+    evaluations = [r["evaluation"] for r in pool if r.get("evaluation")]
+    if evaluations:
+        evaluation = {}
+        for key in evaluations[0]:
+            values = [e.get(key) for e in evaluations]
+            if all(isinstance(v, (int, float)) or v is None for v in values):
+                evaluation[key] = median(values)
+        summary["evaluation"] = evaluation
+    stage_runs = [r for r in pool if r.get("stages")]
+    if stage_runs:
+        summary["stages"] = [
+            [name, median(stage_times(r).get(name) for r in stage_runs)]
+            for name in stage_order(stage_runs)]
+    return summary
+
+
+def summary_records(records):
+    """Rows of the main table: per dataset, ours (over the seeds) and the
+    stock mapper, in the order of the runs."""
+    rows = []
+    for name in dataset_order(records):
+        runs = [r for r in records
+                if r["dataset"] == name and r["mapper"] == "global"]
+        if runs:
+            rows.append(summarize_global(runs))
+        rows += [r for r in records
+                 if r["dataset"] == name and r["mapper"] == "incremental"]
+    return rows
+
+
+def dataset_order(records):
+    names = []
+    for r in records:
+        if r["dataset"] not in names:
+            names.append(r["dataset"])
+    return names
+
+
+def beyond_label(records):
+    fractions = [r["evaluation"]["cameras_beyond_fraction"] for r in records
+                 if (r.get("evaluation") or {}).get("cameras_beyond_fraction")
+                 is not None]
+    return "cameras beyond %g%%" % (100 * (fractions[0] if fractions
+                                           else BEYOND_FRACTION))
+
+
 def markdown_tables(records, meta):
+    """The main table and the per-stage table of all runs (records: the
+    runs, one per seed for ours)."""
+    rows = summary_records(records)
+    multi_seed = any(len(r.get("runs", [])) > 1 for r in rows)
     lines = []
     lines.append("| dataset | mapper | wall time | peak memory | registered "
                  "| AUC@1° | AUC@3° | AUC@5° | AUC@10° | mean position error "
-                 "| mean reproj. error | mean track length |")
-    lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for r in records:
-        mapper = "ours `global_mapper`" if r["mapper"] == "global" else \
-            "COLMAP 3.8 `mapper`"
+                 "| %s | re-placed/left out | mean reproj. error "
+                 "| mean track length |" % beyond_label(records))
+    lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        runs = r.get("runs") or [r]
+        ok_runs = [x for x in runs if x["status"] == "ok"] or runs
+        several = len(runs) > 1
+        if r["mapper"] == "global":
+            mapper = "ours `global_mapper`"
+            if several:
+                mapper += " (median of %d seeds)" % len(runs)
+        else:
+            mapper = "COLMAP 3.8 `mapper`"
         ev = r.get("evaluation") or {}
         if r["status"] != "ok":
             registered = r["status"]
         elif ev:
-            registered = "%d/%d" % (ev["registered"], ev["images"])
+            registered = "%s/%d" % (fmt_span(
+                [(x.get("evaluation") or {}).get("registered")
+                 for x in ok_runs]), ev["images"])
         else:
-            registered = str(r.get("registered", "–"))
-        cells = [r["dataset"], mapper, fmt(r.get("wall_time_s"), 1, " s"),
+            registered = fmt_span([x.get("registered") for x in ok_runs])
+        failed = ["seed %s: %s" % (x.get("seed"), x["status"])
+                  for x in runs if x["status"] != "ok"]
+        if failed and r["status"] == "ok":
+            registered += " (%s)" % "; ".join(failed)
+        wall = fmt(r.get("wall_time_s"), 1, " s")
+        auc3 = fmt(ev.get("auc@3"))
+        if several:
+            wall += " (%s)" % fmt_range([x.get("wall_time_s")
+                                         for x in ok_runs])
+            if ev.get("auc@3") is not None:
+                auc3 += " (%s)" % fmt_range(
+                    [(x.get("evaluation") or {}).get("auc@3")
+                     for x in ok_runs])
+        if any((x.get("evaluation") or {}).get("cameras_beyond") is not None
+               for x in ok_runs):
+            beyond = fmt_span([(x.get("evaluation") or {}).get(
+                "cameras_beyond") for x in ok_runs])
+        else:
+            beyond = "–"
+        if r["mapper"] == "global" and any(
+                x.get("replaced_images") is not None for x in ok_runs):
+            moved = "%s/%s" % (
+                fmt_span([x.get("replaced_images") for x in ok_runs]),
+                fmt_span([x.get("left_out_images") for x in ok_runs]))
+        else:
+            moved = "–"
+        cells = [r["dataset"], mapper, wall,
                  fmt(r.get("peak_rss_mb"), 0, " MB"), registered]
-        cells += [fmt(ev.get("auc@" + t)) for t in AUC_THRESHOLDS]
-        cells += [fmt_error(ev.get("pos_err_mean")),
+        cells += [auc3 if t == "3" else fmt(ev.get("auc@" + t))
+                  for t in AUC_THRESHOLDS]
+        cells += [fmt_error(ev.get("pos_err_mean")), beyond, moved,
                   fmt(r.get("mean_reproj_error_px"), 3, " px"),
                   fmt(r.get("mean_track_length"), 2)]
         lines.append("| " + " | ".join(cells) + " |")
 
-    stage_names = stage_order(records)
+    stage_names = stage_order(rows)
     if stage_names:
         lines.append("")
-        lines.append("Per-stage time of `global_mapper` (s):")
+        lines.append("Per-stage time of `global_mapper` (s%s):" % (
+            ", median over the seeds" if multi_seed else ""))
         lines.append("")
         lines.append("| dataset | " + " | ".join(stage_names) +
                      " | other | total |")
         lines.append("|---|" + "---|" * (len(stage_names) + 2))
-        for r in records:
+        for r in rows:
             if r["mapper"] != "global" or not r.get("stages"):
                 continue
             times = stage_times(r)
@@ -361,9 +713,272 @@ def markdown_tables(records, meta):
                  "translation-direction error per image pair, a pair with an "
                  "unregistered image counting as a failure, in percent. "
                  "Position error: mean camera-centre distance to ground truth "
-                 "after a robust similarity alignment, in ground-truth units.")
+                 "after a robust similarity alignment, in ground-truth units. "
+                 "Cameras beyond: registered cameras farther than that "
+                 "fraction of the scene size (largest distance between two "
+                 "ground-truth cameras) from ground truth after the "
+                 "alignment. Re-placed/left out: images the global mapper's "
+                 "pose verification moved or deregistered.")
+    if multi_seed:
+        lines.append("Several seeds (`--GlobalMapper.random_seed`): our row "
+                     "shows the median over the seeds, the range in "
+                     "parentheses for wall time and AUC@3°, ranges (min–max) "
+                     "for registered, cameras beyond and re-placed/left out, "
+                     "and the largest peak memory; every seed is in the "
+                     "bars table.")
     lines.append("Machine: %s, %s CPUs; %s." % (
         meta["machine"], meta["cpus"], meta["date"]))
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------
+# Acceptance bars
+# --------------------------------------------------------------------------
+
+def run_registered(record):
+    """(registered, images) of a run; images None if unknown."""
+    ev = record.get("evaluation") or {}
+    if record["status"] != "ok":
+        return 0, ev.get("images") or record.get("db_images")
+    if ev:
+        return ev["registered"], ev["images"]
+    return record.get("registered"), record.get("db_images")
+
+
+def image_names(colmap, record):
+    if "image_names" in record:  # Given (self-test).
+        return set(record["image_names"])
+    if record["status"] != "ok":
+        return set()
+    return read_image_names(colmap, record.get("model_path"))
+
+
+def check_bars(colmap, record, reference, stock, stock_relative,
+               max_position_error=None):
+    """The bars of one run of ours. reference: parse_reference() of the
+    dataset; stock: the stock mapper's run on it in this benchmark (or None);
+    stock_relative: bars relative to the stock mapper (dino-363). Returns a
+    row {"dataset", "seed", "cells": {bar: text}, "verdicts": {bar: True /
+    False / None (unchecked) / NOT_APPLICABLE}, "result"}."""
+    ok = record["status"] == "ok"
+    ev = record.get("evaluation") or {}
+    cells, verdicts = {}, {}
+    registered, images = run_registered(record)
+    our_text = "%s/%s" % ("–" if registered is None else registered,
+                          "?" if images is None else images)
+    stock_ref = (reference or {}).get("incremental") or {}
+
+    # Registration.
+    if stock_relative and stock is not None:
+        stock_names = image_names(colmap, stock)
+        our_names = image_names(colmap, record)
+        if stock["status"] != "ok":
+            cells["registered"] = our_text + " (stock: none)"
+            verdicts["registered"] = True
+        elif stock_names is not None and our_names is not None:
+            missing = sorted(stock_names - our_names)
+            if missing:
+                cells["registered"] = "%s, misses %d of stock's %d (%s)" % (
+                    our_text, len(missing), len(stock_names),
+                    ", ".join(missing[:3]) + (", ..." if len(missing) > 3
+                                              else ""))
+            else:
+                cells["registered"] = "%s ⊇ stock's %d" % (
+                    our_text, len(stock_names))
+            verdicts["registered"] = not missing
+        else:
+            # No image names: compare the counts.
+            stock_count = run_registered(stock)[0]
+            cells["registered"] = "%s vs stock %s (counts)" % (
+                our_text, stock_count)
+            verdicts["registered"] = (
+                None if registered is None or stock_count is None
+                else registered >= stock_count)
+    elif stock_relative and stock_ref.get("registered"):
+        needed = stock_ref["registered"][0]
+        cells["registered"] = "%s vs stock %d (README)" % (our_text, needed)
+        verdicts["registered"] = (None if registered is None
+                                  else registered >= needed)
+    else:
+        cells["registered"] = our_text
+        verdicts["registered"] = (None if registered is None or images is None
+                                  else registered >= images)
+
+    # AUC@3.
+    ours = ev.get("auc@3") if ok else 0.0
+    bar, source = None, None
+    if stock_relative:
+        if stock is not None:
+            stock_ev = stock.get("evaluation") or {}
+            stock_auc = (stock_ev.get("auc@3") if stock["status"] == "ok"
+                         else 0.0)
+            source = "stock"
+        else:
+            stock_auc = stock_ref.get("auc@3")
+            source = "stock README"
+        if stock_auc is not None:
+            bar = stock_auc - STOCK_AUC_MARGIN
+    else:
+        figures = [row.get("auc@3") for row in (reference or {}).values()]
+        figures = [f for f in figures if f is not None]
+        if figures:
+            bar = max(figures) - AUC_BAR_MARGIN
+            source = "README"
+    if bar is None:
+        cells["auc@3"] = fmt(ours)
+        verdicts["auc@3"] = None if stock_relative else NOT_APPLICABLE
+    elif ours is None:
+        cells["auc@3"] = "– (bar %.1f, %s)" % (bar, source)
+        verdicts["auc@3"] = None
+    else:
+        # Compared as shown (one decimal, like the README figures).
+        met = round(ours, 1) >= round(bar, 1) - 1e-9
+        cells["auc@3"] = "%.1f %s %.1f (%s)" % (ours, "≥" if met else "<",
+                                                bar, source)
+        verdicts["auc@3"] = met
+
+    # Cameras beyond 5% of the scene size.
+    if not ok:
+        cells["beyond"], verdicts["beyond"] = "–", NOT_APPLICABLE
+    elif ev.get("cameras_beyond") is None:
+        cells["beyond"] = "– (not reported)" if ev else "– (no ground truth)"
+        verdicts["beyond"] = None
+    else:
+        fraction = ev.get("cameras_beyond_fraction", BEYOND_FRACTION)
+        cells["beyond"] = str(ev["cameras_beyond"])
+        if fraction is not None and abs(fraction - BEYOND_FRACTION) > 1e-9:
+            cells["beyond"] += " (at %g%%)" % (100 * fraction)
+        verdicts["beyond"] = ev["cameras_beyond"] == 0
+
+    # Mean position error (KITTI_sequence_1).
+    if max_position_error is None:
+        cells["position"], verdicts["position"] = "–", NOT_APPLICABLE
+    elif not ok:
+        cells["position"] = "– (bar %g)" % max_position_error
+        verdicts["position"] = False
+    elif not ev:
+        cells["position"] = "– (no ground truth)"
+        verdicts["position"] = None
+    else:
+        error = ev.get("pos_err_mean")
+        met = error is not None and error <= max_position_error
+        cells["position"] = "%s %s %g" % (fmt_error(error),
+                                          "≤" if met else ">",
+                                          max_position_error)
+        verdicts["position"] = met
+
+    # Time against the stock mapper (stock-relative datasets).
+    if not stock_relative:
+        cells["time"], verdicts["time"] = "–", NOT_APPLICABLE
+    else:
+        if stock is not None:
+            stock_time, source = stock.get("wall_time_s"), "stock"
+        else:
+            stock_time, source = stock_ref.get("wall_time_s"), "stock README"
+        ours_time = record.get("wall_time_s")
+        if not stock_time or ours_time is None:
+            cells["time"], verdicts["time"] = "–", None
+        else:
+            ratio = ours_time / stock_time
+            met = ratio <= STOCK_TIME_RATIO
+            cells["time"] = "%.1f/%.1f s = %.2f× %s %g× (%s)" % (
+                ours_time, stock_time, ratio, "≤" if met else ">",
+                STOCK_TIME_RATIO, source)
+            verdicts["time"] = met
+
+    if record.get("replaced_images") is not None:
+        cells["moved"] = "%d/%d" % (record["replaced_images"],
+                                    record["left_out_images"])
+    else:
+        cells["moved"] = "–"
+
+    names = {"registered": "registered", "auc@3": "AUC@3",
+             "beyond": "cameras beyond", "position": "position error",
+             "time": "time"}
+    failed = [names[k] for k, v in verdicts.items() if v is False]
+    unchecked = [names[k] for k, v in verdicts.items() if v is None]
+    if not ok:
+        failed.insert(0, record["status"])
+    if failed:
+        result = "**FAIL** (%s)" % ", ".join(failed)
+    elif unchecked:
+        result = "unchecked (%s)" % ", ".join(unchecked)
+    else:
+        result = "pass"
+    return {"dataset": record["dataset"], "seed": record.get("seed"),
+            "stock_relative": stock_relative, "cells": cells,
+            "verdicts": verdicts, "failed": failed, "unchecked": unchecked,
+            "result": result}
+
+
+def compute_bars(args, records, datasets):
+    rows = []
+    for dataset in datasets:
+        name = os.path.basename(dataset)
+        reference = parse_reference(dataset)
+        stock = next((r for r in records if r["dataset"] == name
+                      and r["mapper"] == "incremental"), None)
+        # The README has the stock mapper's figures but no upstream
+        # global_mapper's (dino-363): compare with the stock mapper.
+        stock_relative = name in args.stock_relative or (
+            reference is not None and "incremental" in reference
+            and "upstream" not in reference)
+        for r in records:
+            if r["dataset"] == name and r["mapper"] == "global":
+                rows.append(check_bars(args.colmap, r, reference, stock,
+                                       stock_relative,
+                                       MAX_POSITION_ERROR.get(name)))
+    return rows
+
+
+def all_bars_met(bars):
+    """(met, the final line)."""
+    if not bars:
+        return False, "all bars met: no (no run of the global mapper)"
+    failing = [b for b in bars if b["failed"]]
+    unchecked = [b for b in bars if not b["failed"] and b["unchecked"]]
+    if not failing and not unchecked:
+        return True, "all bars met: yes (%d of %d runs pass)" % (len(bars),
+                                                                len(bars))
+    notes = []
+    if failing:
+        notes.append("%d of %d runs fail" % (len(failing), len(bars)))
+    if unchecked:
+        notes.append("%d run(s) could not be checked" % len(unchecked))
+    return False, "all bars met: no (%s)" % "; ".join(notes)
+
+
+def bars_table(bars, beyond):
+    lines = ["Bars of issue 10, per run of `global_mapper`:", "",
+             "| dataset | seed | registered | AUC@3° vs bar | %s "
+             "| mean position error vs bar | time vs stock mapper "
+             "| re-placed/left out | result |" % beyond,
+             "|---|---|---|---|---|---|---|---|---|"]
+    for b in bars:
+        c = b["cells"]
+        cells = [b["dataset"] + (" (stock-relative)" if b["stock_relative"]
+                                 else ""),
+                 "–" if b["seed"] is None else str(b["seed"]),
+                 c["registered"], c["auc@3"], c["beyond"], c["position"],
+                 c["time"], c["moved"], b["result"]]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines.append("")
+    lines.append(
+        "Bars: every image registered; AUC@3° at least the better of the "
+        "reference mappers' figures in the dataset's README (COLMAP 3.8 "
+        "`mapper`, COLMAP 4.1.1 `global_mapper`) minus %g; no registered "
+        "camera beyond %g%% of the scene size; %s. Stock-relative datasets "
+        "(README without upstream figures, e.g. dino-363): every image the "
+        "stock `mapper` of this run registers, AUC@3° at most %g below it, "
+        "in at most %g× its time (its README figures if it was not run). "
+        "Without README figures (synthetic scenes) only the registration "
+        "and cameras-beyond bars apply. AUC compared at one decimal." % (
+            AUC_BAR_MARGIN, 100 * BEYOND_FRACTION,
+            "; ".join("%s: mean position error at most %g" % item
+                      for item in sorted(MAX_POSITION_ERROR.items())),
+            STOCK_AUC_MARGIN, STOCK_TIME_RATIO))
+    lines.append("")
+    lines.append(all_bars_met(bars)[1])
     return "\n".join(lines) + "\n"
 
 
@@ -388,6 +1003,7 @@ def gnuplot_label(text):
 
 
 def write_plots(records, output_dir):
+    """records: the main table's rows (summary_records)."""
     gnuplot = shutil.which("gnuplot")
     if not gnuplot:
         log("gnuplot not found: no plots (apt-get install gnuplot-nox)")
@@ -409,8 +1025,9 @@ def write_plots(records, output_dir):
                 values[k] = times.get(name, 0.0)
             values[len(stage_names)] = max(
                 0.0, r["wall_time_s"] - sum(times.values()))
-            label = r["dataset"] + (" (global)" if r["status"] == "ok"
-                                    else " (global, failed)")
+            label = r["dataset"] + (" (global" + (
+                ", median" if len(r.get("runs") or []) > 1 else "") + ")"
+                if r["status"] == "ok" else " (global, failed)")
         else:
             values[-1] = r["wall_time_s"]
             label = r["dataset"] + (" (incr.)" if r["status"] == "ok"
@@ -516,8 +1133,8 @@ def update_readme(readme_path, table, plot_path, command):
     appends one) with the table and one plot, copied beside the README."""
     readme_dir = os.path.dirname(os.path.abspath(readme_path))
     section = [README_BEGIN, "",
-               "Regenerate with `%s` (on this machine; the table below is "
-               "the latest run)." % command, ""]
+               "Regenerate with `%s` (on this machine; the tables below are "
+               "from this command's latest run)." % command, ""]
     if plot_path:
         target = os.path.join(readme_dir, "docs", "benchmark",
                               os.path.basename(plot_path))
@@ -538,6 +1155,205 @@ def update_readme(readme_path, table, plot_path, command):
         f.write(text)
 
 
+def parse_seeds(text):
+    try:
+        seeds = [int(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError("not a list of integers: %r" % text)
+    if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
+        raise argparse.ArgumentTypeError(
+            "need distinct non-negative integers: %r" % text)
+    return seeds
+
+
+def command_line(parser, argv, cwd):
+    """The command that ran, for the reports: `python3 <argv>` with the paths
+    inside the repository's parent folder made relative to the repository
+    (the folder it is meant to run from); other absolute paths stay."""
+    value_options = {option for action in parser._actions
+                     for option in action.option_strings if action.nargs != 0}
+    parent = os.path.dirname(REPO_DIR)
+
+    def relative(path):
+        full = os.path.normpath(os.path.join(cwd, path))
+        if not os.path.isabs(path) and not os.path.exists(full):
+            return path  # Not a path (or not one yet): as given.
+        if full == parent or full.startswith(parent + os.sep):
+            return os.path.relpath(full, REPO_DIR)
+        return full
+
+    words = ["python3", os.path.relpath(os.path.abspath(argv[0]), REPO_DIR)
+             if argv[0].endswith(".py") else argv[0]]
+    previous = None
+    for arg in argv[1:]:
+        if arg.startswith("-"):
+            option, equals, value = arg.partition("=")
+            if equals and option in value_options:
+                arg = option + "=" + relative(value)
+            words.append(arg)
+            previous = option if not equals else None
+            continue
+        # An option's value (a path only for the path options) or a dataset.
+        if previous in value_options and previous not in (
+                "--colmap", "--output_dir", "--readme"):
+            words.append(arg)
+        else:
+            words.append(relative(arg))
+        previous = None
+    return " ".join(shlex.quote(w) for w in words)
+
+
+def self_test():
+    """Checks of the parsing and of the bars on made-up input; no colmap."""
+    checks = [0]
+
+    def expect(condition, what):
+        checks[0] += 1
+        if not condition:
+            raise AssertionError("self-test failed: " + what)
+
+    table = ("# x\n\n## Reference figures\ntext\n\n"
+             "| mapper | wall time | registered | AUC@1° | AUC@3° | AUC@5° "
+             "| AUC@10° | mean position error |\n"
+             "|---|---|---|---|---|---|---|---|\n"
+             "| COLMAP 3.8 incremental %s | 39.7s | %s | – | %s | – | – | – |\n"
+             "%s")
+    upstream = ("| COLMAP 4.1.1 \\`global_mapper\\` (upstream) | 59.6s | 51/51 "
+                "| 2.7 | 66.2 | 79.7 | 89.8 | 0.0146 |\n")
+    ours = ("| this project's `global_mapper` at commit 3942e28 | 80.2s "
+            "| 199/363 | 5.3 | 95.5 | 24.1 | 26.9 | 0.007077 |\n")
+    ref = parse_reference_text(table % ("`mapper`", "failed: no model",
+                                        "–", upstream))
+    expect(ref["incremental"]["auc@3"] is None, "'–' is no figure")
+    expect(ref["incremental"]["registered"] is None, "failed registration")
+    expect(ref["upstream"]["auc@3"] == 66.2, "escaped backticks")
+    expect(ref["upstream"]["wall_time_s"] == 59.6, "wall time")
+    ref = parse_reference_text(table % ("\\`mapper\\`", "363/363", "70.2",
+                                        ours))
+    expect(set(ref) == {"incremental"}, "this project's rows are ignored")
+    expect(ref["incremental"]["registered"] == [363, 363], "registered")
+    expect(parse_reference_text("# no table\n| a | b |\n|---|---|\n") is None,
+           "no reference table")
+
+    match = FINISH_RE.search(
+        "I1201 12:00:00.1 global_mapper.cc:355] Global mapper finished in "
+        "12.3 s: 1 model(s), 47 of 47 images registered; pose verification "
+        "re-placed 2 and left out 1 image(s).")
+    expect(match and match.group(5) == "2" and match.group(6) == "1",
+           "final line")
+    expect(FINISH_RE.search("Global mapper finished in 1.0 s: 2 model(s), 5 "
+                            "of 8 images registered.").group(5) is None,
+           "final line of an older binary")
+    expect(STAGE_RE.search("Stage Final pose verification: 0.250 s (a=1)")
+           .group(1) == "Final pose verification", "stage line")
+    expect(STAGE_RE.search("Stage Pose verification ...") is None,
+           "stage start line")
+
+    with tempfile.TemporaryDirectory() as tmp:
+        with open(os.path.join(tmp, "images.bin"), "wb") as f:
+            f.write(struct.pack("<Q", 2))
+            for k, (name, points) in enumerate([("a b.jpg", 2), ("c.png", 0)]):
+                f.write(struct.pack("<I7dI", k + 1, 1, 0, 0, 0, 0, 0, 0, 1))
+                f.write(name.encode() + b"\0" + struct.pack("<Q", points))
+                f.write(struct.pack("<ddq", 1, 2, -1) * points)
+        expect(read_image_names("colmap", tmp) == {"a b.jpg", "c.png"},
+               "images.bin")
+        with open(os.path.join(tmp, "images.txt"), "w") as f:
+            f.write("# Image list\n# two lines\n"
+                    "1 1 0 0 0 0 0 0 1 a b.jpg\n1.0 2.0 -1\n"
+                    "2 1 0 0 0 0 0 0 1 c.png\n\n")
+        expect(set(read_image_names_txt(os.path.join(tmp, "images.txt")))
+               == {"a b.jpg", "c.png"}, "images.txt with an empty line")
+
+    def run(mapper, seed, registered, auc3, wall, beyond=0, names=None,
+            status="ok", pos=0.01):
+        ev = {"images": 10, "registered": registered, "auc@1": 50.0,
+              "auc@3": auc3, "auc@5": 90.0, "auc@10": 95.0,
+              "pos_err_mean": pos}
+        if beyond is not None:
+            ev.update(cameras_beyond=beyond, cameras_beyond_fraction=0.05)
+        record = {"dataset": "d", "mapper": mapper, "status": status,
+                  "wall_time_s": wall, "evaluation": ev,
+                  "replaced_images": 1, "left_out_images": 0,
+                  "stages": [["relative_poses", wall / 2]]}
+        if seed is not None:
+            record["seed"] = seed
+        if names is not None:
+            record["image_names"] = names
+        return record
+
+    readme = {"incremental": {"auc@3": 90.0, "registered": [10, 10],
+                              "wall_time_s": 20.0},
+              "upstream": {"auc@3": 91.0, "registered": [10, 10]}}
+    expect(check_bars("colmap", run("global", 0, 10, 90.5, 2), readme, None,
+                      False)["result"] == "pass", "plain pass")
+    row = check_bars("colmap", run("global", 0, 10, 90.44, 2), readme, None,
+                     False)
+    expect(row["failed"] == ["AUC@3"], "AUC below the better reference")
+    row = check_bars("colmap", run("global", 0, 9, 95, 2, beyond=1), readme,
+                     None, False)
+    expect(row["failed"] == ["registered", "cameras beyond"],
+           "registration and cameras beyond")
+    row = check_bars("colmap", run("global", 0, 10, 95, 2, beyond=None),
+                     readme, None, False)
+    expect(row["unchecked"] == ["cameras beyond"] and not row["failed"],
+           "an evaluator without cameras_beyond")
+    row = check_bars("colmap", run("global", 0, 10, 95, 2, pos=0.03), readme,
+                     None, False, 0.02)
+    expect(row["failed"] == ["position error"], "position error bar")
+    row = check_bars("colmap", run("global", 0, 10, 95, 2), None, None, False)
+    expect(row["result"] == "pass" and row["verdicts"]["auc@3"] ==
+           NOT_APPLICABLE, "no README figures")
+
+    # Stock-relative (dino-363): the stock mapper of the same run.
+    stock = run("incremental", None, 8, 70.2, 100.0,
+                names=["1", "2", "3", "4", "5", "6", "7", "8"])
+    dino = {"incremental": readme["incremental"]}
+    good = run("global", 1, 9, 69.2, 50.0, beyond=0,
+               names=["1", "2", "3", "4", "5", "6", "7", "8", "9"])
+    row = check_bars("colmap", good, dino, stock, True)
+    expect(row["result"] == "pass", "stock-relative pass: " + str(row))
+    bad = run("global", 2, 9, 69.1, 50.1, beyond=0,
+              names=["1", "2", "3", "4", "5", "6", "7", "9", "10"])
+    row = check_bars("colmap", bad, dino, stock, True)
+    expect(row["failed"] == ["registered", "AUC@3", "time"],
+           "stock-relative failures: " + str(row["failed"]))
+    expect("misses 1" in row["cells"]["registered"], "missing image named")
+    row = check_bars("colmap", run("global", 0, 10, 89.0, 9.0), dino, None,
+                     True)
+    expect(row["result"] == "pass" and "README" in row["cells"]["time"],
+           "stock-relative with the README's stock figures")
+    failed_stock = dict(stock, status="failed: no model", evaluation=None)
+    row = check_bars("colmap", good, dino, failed_stock, True)
+    expect(row["verdicts"]["registered"] is True and
+           row["verdicts"]["auc@3"] is True, "a failed stock mapper")
+    expect(all_bars_met([])[0] is False, "no runs")
+    runs = [run("global", s, 10, a, w) for s, a, w in
+            [(0, 80.0, 3.0), (1, 82.0, 5.0), (2, 81.0, 4.0)]]
+    runs[2]["evaluation"]["cameras_beyond"] = 2
+    summary = summarize_global(runs)
+    expect(summary["wall_time_s"] == 4.0 and
+           summary["evaluation"]["auc@3"] == 81.0, "median over seeds")
+    table = markdown_tables(runs + [stock], {"machine": "m", "cpus": 2,
+                                             "date": "today"})
+    expect("4.0 s (3.0–5.0)" in table and "81.0 (80.0–82.0)" in table and
+           "| 0–2 |" in table, "seed spread in the table:\n" + table)
+
+    parser = argparse.ArgumentParser()
+    parser.add_argument("datasets", nargs="*")
+    parser.add_argument("--colmap")
+    parser.add_argument("--seeds")
+    parser.add_argument("--skip_incremental", action="store_true")
+    parent = os.path.dirname(REPO_DIR)
+    line = command_line(parser, [
+        os.path.join(REPO_DIR, "scripts", "benchmark.py"), "--colmap",
+        "/usr/bin/env", "--skip_incremental", "--seeds", "0,1",
+        os.path.join(parent, "x y")], "/")
+    expect(line == "python3 scripts/benchmark.py --colmap /usr/bin/env "
+           "--skip_incremental --seeds 0,1 '../x y'", line)
+    print("self-test: %d checks passed" % checks[0])
+
+
 def main():
     parser = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0],
@@ -551,6 +1367,10 @@ def main():
     parser.add_argument("--output_dir", default=DEFAULT_OUTPUT,
                         help="where runs and reports go (default: "
                         "%(default)s)")
+    parser.add_argument("--seeds", type=parse_seeds, default=[0],
+                        metavar="S,S,...", help="run our global mapper once "
+                        "per seed (--GlobalMapper.random_seed), e.g. "
+                        "0,1,2,3,4; the stock mapper runs once (default: 0)")
     parser.add_argument("--synthetic", type=int, action="append", default=[],
                         metavar="N", help="also a synthetic scene of N images "
                         "(make_synthetic_scene); may repeat")
@@ -558,6 +1378,10 @@ def main():
                         help="run only our global mapper")
     parser.add_argument("--skip_global", action="store_true",
                         help="run only the stock incremental mapper")
+    parser.add_argument("--stock_relative", action="append", default=[],
+                        metavar="DATASET", help="judge this dataset (folder "
+                        "name) against the stock mapper of this run, like "
+                        "dino-363; may repeat")
     parser.add_argument("--position_thresholds", default="0.01,0.05,0.1",
                         help="distance thresholds of the position AUC, in "
                         "ground-truth units (default: %(default)s)")
@@ -565,9 +1389,16 @@ def main():
                         help="seconds before a run is stopped (default: "
                         "%(default)s)")
     parser.add_argument("--readme", metavar="README.md",
-                        help="also put the table and the AUC plot into this "
+                        help="also put the tables and the AUC plot into this "
                         "README's benchmark section")
+    parser.add_argument("--self_test", action="store_true",
+                        help="check the script's parsing and bars on made-up "
+                        "input, then exit")
     args = parser.parse_args()
+    if args.self_test:
+        self_test()
+        return
+    command = command_line(parser, sys.argv, os.getcwd())
     args.colmap = os.path.abspath(args.colmap)
     args.output_dir = os.path.abspath(args.output_dir)
 
@@ -582,15 +1413,19 @@ def main():
             datasets.append(path)
     if not datasets:
         sys.exit("error: no dataset folder with a database.db found")
-    mappers = [m for m in ("global", "incremental")
-               if not (m == "global" and args.skip_global)
-               and not (m == "incremental" and args.skip_incremental)]
+    runs = []  # (mapper, seed)
+    if not args.skip_global:
+        runs += [("global", seed) for seed in args.seeds]
+    if not args.skip_incremental:
+        runs.append(("incremental", None))
 
     meta = {
         "date": datetime.datetime.now().strftime("%Y-%m-%d %H:%M"),
         "machine": platform.processor() or platform.machine(),
         "cpus": os.cpu_count(),
         "colmap": args.colmap,
+        "command": command,
+        "seeds": args.seeds,
     }
     try:
         with open("/proc/cpuinfo") as f:
@@ -601,32 +1436,43 @@ def main():
         pass
 
     records = []
-    total = len(datasets) * len(mappers)
+    total = len(datasets) * len(runs)
     index = 0
+    results_path = os.path.join(args.output_dir, "results.json")
     for dataset in datasets:
-        for mapper in mappers:
+        for mapper, seed in runs:
             index += 1
-            records.append(run_one(args, dataset, mapper, index, total))
+            records.append(run_one(args, dataset, mapper, seed, index, total))
             # Written after every run so that an interrupted benchmark keeps
             # what it measured.
-            with open(os.path.join(args.output_dir, "results.json"), "w") as f:
+            with open(results_path, "w") as f:
                 json.dump({"meta": meta, "runs": records}, f, indent=2)
 
+    bars = compute_bars(args, records, datasets)
+    met, met_line = all_bars_met(bars)
     table = markdown_tables(records, meta)
+    if bars:
+        table += "\n" + bars_table(bars, beyond_label(records))
+    with open(results_path, "w") as f:
+        json.dump({"meta": meta, "runs": records, "bars": bars,
+                   "all_bars_met": met}, f, indent=2)
     with open(os.path.join(args.output_dir, "results.md"), "w") as f:
         f.write("# Benchmark: global_mapper vs. incremental mapper\n\n")
+        f.write("Command: `%s`\n\n" % command)
         f.write(table)
-    plots = write_plots(records, args.output_dir)
+    plots = write_plots(summary_records(records), args.output_dir)
+    log("")
+    log("$ " + command)
     log("")
     log(table)
     log("Wrote %s" % ", ".join(
-        [os.path.join(args.output_dir, "results.json"),
-         os.path.join(args.output_dir, "results.md")] + plots))
+        [results_path, os.path.join(args.output_dir, "results.md")] + plots))
     if args.readme:
         auc_plot = next((p for p in plots if "auc" in p), None)
-        update_readme(args.readme, table, auc_plot,
-                      "python3 scripts/benchmark.py --readme README.md")
+        update_readme(args.readme, table, auc_plot, command)
         log("Updated %s" % args.readme)
+    if bars:
+        log(met_line)
 
 
 if __name__ == "__main__":

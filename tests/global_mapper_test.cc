@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <tuple>
 
 #include "base/pose.h"
 #include "glomap/model_evaluation.h"
@@ -167,7 +168,13 @@ TEST(GlobalMapper, DatabaseWithoutPairsIsAnError) {
   EXPECT_TRUE(result.models.empty());
 }
 
-// Real datasets: the reference figures of each dataset's README.
+// Real datasets: the reference figures of each dataset's README. The bars
+// (issue 10): every image registered; pairwise AUC@3 at least the better of
+// the two reference mappers' figures minus 0.5; no registered camera farther
+// than 5% of the scene size from the ground truth after a robust similarity
+// alignment; KITTI_sequence_1 also keeps its 2 cm mean position bar. Each
+// dataset runs with two seeds, so that a bar is not met by one lucky seed
+// (the benchmark runs five).
 struct RealCase {
   std::string name;
   size_t num_images;
@@ -176,17 +183,21 @@ struct RealCase {
   double absolute_max_pos_err;    // when > 0, an absolute bar instead
 };
 
-class GlobalMapperRealData : public ::testing::TestWithParam<RealCase> {};
+class GlobalMapperRealData
+    : public ::testing::TestWithParam<std::tuple<RealCase, int>> {};
 
 TEST_P(GlobalMapperRealData, MatchesReferenceMappers) {
   const std::string datasets = testing::SharedDatasetsDir();
   if (datasets.empty()) GTEST_SKIP() << "../shared/datasets is absent";
-  const RealCase& c = GetParam();
+  const RealCase& c = std::get<0>(GetParam());
+  const int seed = std::get<1>(GetParam());
   const std::string dataset_dir = datasets + "/" + c.name;
   const std::string database_path = dataset_dir + "/database.db";
   const std::string digest_before = testing::FileDigest(database_path);
 
-  const RunResult result = RunMapper(database_path);
+  GlobalMapperOptions options;
+  options.random_seed = seed;
+  const RunResult result = RunMapper(database_path, options);
   ASSERT_TRUE(result.status.ok()) << result.status.message();
   EXPECT_EQ(testing::FileDigest(database_path), digest_before);
   ASSERT_GE(result.models.size(), 1u);
@@ -197,35 +208,39 @@ TEST_P(GlobalMapperRealData, MatchesReferenceMappers) {
   ASSERT_TRUE(EvaluateModel(result.models[0], truth, ModelEvaluationOptions(),
                             &evaluation)
                   .ok());
-  std::cout << c.name << ": registered " << evaluation.num_registered << "/"
-            << evaluation.num_gt_images << ", AUC@1/3/5/10 "
-            << evaluation.pose_aucs[0] << " " << evaluation.pose_aucs[1] << " "
-            << evaluation.pose_aucs[2] << " " << evaluation.pose_aucs[3]
-            << ", position error mean " << evaluation.position_error_mean
-            << std::endl;
+  std::cout << c.name << " (seed " << seed << "): registered "
+            << evaluation.num_registered << "/" << evaluation.num_gt_images
+            << ", AUC@1/3/5/10 " << evaluation.pose_aucs[0] << " "
+            << evaluation.pose_aucs[1] << " " << evaluation.pose_aucs[2] << " "
+            << evaluation.pose_aucs[3] << ", position error mean "
+            << evaluation.position_error_mean << ", cameras beyond 5% "
+            << evaluation.num_cameras_beyond << std::endl;
   EXPECT_EQ(evaluation.num_registered, static_cast<int>(c.num_images));
+  EXPECT_EQ(evaluation.num_cameras_beyond, 0);
+  EXPECT_GE(evaluation.pose_aucs[1], c.best_reference_auc3 - 0.5);
   if (c.absolute_max_pos_err > 0) {
     EXPECT_LE(evaluation.position_error_mean, c.absolute_max_pos_err);
   } else {
-    EXPECT_GE(evaluation.pose_aucs[1], c.best_reference_auc3 - 1.0);
     EXPECT_LE(evaluation.position_error_mean, 1.2 * c.best_reference_pos_err);
   }
 }
 
 INSTANTIATE_TEST_SUITE_P(
     SharedDatasets, GlobalMapperRealData,
-    ::testing::Values(RealCase{"fountain-P11", 11, 88.7, 0.006072, 0},
-                      RealCase{"Herz-Jesus-P8", 8, 90.0, 0.008546, 0},
-                      RealCase{"entry-P10", 10, 88.4, 0.02241, 0},
-                      RealCase{"castle-P19", 19, 78.3, 0.1283, 0},
-                      RealCase{"templeRing", 47, 69.2, 0.001034, 0},
-                      RealCase{"KITTI_sequence_1", 51, 0, 0, 0.02}),
+    ::testing::Combine(
+        ::testing::Values(RealCase{"fountain-P11", 11, 88.7, 0.006072, 0},
+                          RealCase{"Herz-Jesus-P8", 8, 90.0, 0.008546, 0},
+                          RealCase{"entry-P10", 10, 88.4, 0.02241, 0},
+                          RealCase{"castle-P19", 19, 78.3, 0.1283, 0},
+                          RealCase{"templeRing", 47, 69.2, 0.001034, 0},
+                          RealCase{"KITTI_sequence_1", 51, 66.2, 0, 0.02}),
+        ::testing::Values(0, 1)),
     [](const auto& info) {
-      std::string name = info.param.name;
+      std::string name = std::get<0>(info.param).name;
       for (char& ch : name) {
         if (!isalnum(ch)) ch = '_';
       }
-      return name;
+      return name + "_seed" + std::to_string(std::get<1>(info.param));
     });
 
 }  // namespace

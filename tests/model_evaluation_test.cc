@@ -245,6 +245,41 @@ TEST(EvaluateModel, RobustAlignmentIgnoresAnOutlierCamera) {
               2.0, 1e-9);
 }
 
+// Ring of radius 5: scene size 10 (two opposite cameras). Camera 4 is 2 GT
+// units off (20% of the scene), camera 7 0.3 units (3%).
+TEST(EvaluateModel, CountsCamerasBeyondAFractionOfTheSceneSize) {
+  const colmap::Reconstruction ground_truth = MakeRing(10);
+  colmap::Reconstruction model = TransformModel(
+      ground_truth, 0.5, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero());
+  for (const auto& [image_id, offset] :
+       {std::make_pair(4, 1.0), std::make_pair(7, 0.15)}) {
+    colmap::Image& moved = model.Image(image_id);
+    const Eigen::Vector3d center =
+        moved.ProjectionCenter() + Eigen::Vector3d(0.0, 0.0, offset);
+    moved.SetTvec(-moved.RotationMatrix() * center);
+  }
+  ModelEvaluation evaluation = Evaluate(model, ground_truth);
+  ASSERT_TRUE(evaluation.aligned);
+  // Opposite cameras are 10 apart in the plane, their heights differ a bit.
+  EXPECT_NEAR(evaluation.scene_size, 10.0, 0.1);
+  EXPECT_EQ(evaluation.num_cameras_beyond, 1);
+  ASSERT_EQ(evaluation.cameras_beyond.size(), 1u);
+  EXPECT_EQ(evaluation.cameras_beyond[0], "image4.jpg");
+  const std::string text =
+      EvaluationToText(evaluation, ModelEvaluationOptions());
+  EXPECT_NE(text.find("Cameras beyond 5% of the scene size ("),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("): 1 (image4.jpg)"), std::string::npos) << text;
+
+  ModelEvaluationOptions tight;
+  tight.max_position_error_fraction_of_scene = 0.01;
+  evaluation = Evaluate(model, ground_truth, tight);
+  EXPECT_EQ(evaluation.num_cameras_beyond, 2);
+  EXPECT_NE(EvaluationToJson(evaluation, tight).find("\"cameras_beyond\": 2"),
+            std::string::npos);
+}
+
 TEST(EvaluateModel, SeededRansacIsDeterministic) {
   // 40 cameras: more triples than trials, so RANSAC samples at random.
   const colmap::Reconstruction ground_truth = MakeRing(40);

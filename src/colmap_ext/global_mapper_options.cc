@@ -51,6 +51,9 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Skip retriangulation");
   b.Add("skip_clustering", &o->skip_clustering,
         "Write all registered images as one model");
+  b.Add("skip_pose_verification", &o->skip_pose_verification,
+        "Do not check the camera poses against the structure (not "
+        "recommended: a wrongly placed camera then goes unnoticed)");
 
   b.Group("View graph calibration");
   auto& vgc = o->view_graph_calibration;
@@ -146,6 +149,36 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("gp_max_num_images_eigen_sparse", &gp.max_num_images_eigen_sparse,
         "Below this many images, solve with Eigen's sparse Cholesky; above, "
         "with CHOLMOD and a Schur complement");
+
+  b.Group("Pose verification");
+  auto& pv = o->pose_verification;
+  b.Add("pv_max_reproj_error_px", &pv.max_reproj_error_px,
+        "Inlier threshold of the check before the output [px]");
+  b.Add("pv_positioning_max_reproj_error_px",
+        &pv.positioning_max_reproj_error_px,
+        "Inlier threshold of the check after global positioning [px]");
+  b.Add("pv_min_point_support", &pv.min_point_support,
+        "A point checks an image only if this many other images see it");
+  b.Add("pv_use_all_pairs", &pv.use_all_pairs,
+        "Use the matches of every database pair, also rejected ones");
+  b.Add("pv_min_num_inliers", &pv.min_num_inliers,
+        "A pose needs this many inlier correspondences");
+  b.Add("pv_min_inlier_ratio", &pv.min_inlier_ratio,
+        "A pose needs this inlier ratio");
+  b.Add("pv_min_inlier_fraction_of_estimate",
+        &pv.min_inlier_fraction_of_estimate,
+        "The current pose must explain this fraction of the re-estimated "
+        "pose's inliers");
+  b.Add("pv_max_rotation_difference_deg", &pv.max_rotation_difference_deg,
+        "... or agree with it within this rotation [deg]");
+  b.Add("pv_max_center_distance_ratio", &pv.max_center_distance_ratio,
+        "... and this centre distance, as a fraction of the scene size");
+  b.Add("pv_max_num_rounds", &pv.max_num_rounds,
+        "Checks repeat without the failing images' points, at most this "
+        "often");
+  b.Add("pv_ransac_confidence", &pv.ransac_confidence, "RANSAC confidence");
+  b.Add("pv_ransac_max_num_trials", &pv.ransac_max_num_trials,
+        "Maximum RANSAC trials");
 
   b.Group("Bundle adjustment");
   auto& ba = o->bundle_adjustment;

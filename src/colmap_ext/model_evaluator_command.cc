@@ -48,6 +48,8 @@ int RunModelEvaluator(int argc, char** argv) {
   glomap::ModelEvaluationOptions evaluation_options;
   double inlier_fraction =
       evaluation_options.alignment_inlier_fraction_of_scale;
+  double beyond_fraction =
+      evaluation_options.max_position_error_fraction_of_scene;
 
   OptionManager options;
   options.AddRequiredOption("input_path", &input_path,
@@ -64,6 +66,11 @@ int RunModelEvaluator(int argc, char** argv) {
       "alignment_inlier_fraction", &inlier_fraction,
       "RANSAC inlier threshold of the similarity alignment, as a fraction of "
       "the median distance of ground-truth cameras from their median.");
+  options.AddDefaultOption(
+      "max_position_error_fraction", &beyond_fraction,
+      "Cameras whose position error after the alignment exceeds this "
+      "fraction of the scene size (largest distance between two ground-truth "
+      "camera centres) are reported as \"cameras beyond\".");
   options.Parse(argc, argv);
 
   if (!ParseThresholds(position_thresholds,
@@ -74,8 +81,10 @@ int RunModelEvaluator(int argc, char** argv) {
     return EXIT_FAILURE;
   }
   evaluation_options.alignment_inlier_fraction_of_scale = inlier_fraction;
+  evaluation_options.max_position_error_fraction_of_scene = beyond_fraction;
   if (!evaluation_options.Check()) {
-    std::cerr << "ERROR: --alignment_inlier_fraction must be positive."
+    std::cerr << "ERROR: --alignment_inlier_fraction and "
+                 "--max_position_error_fraction must be positive."
               << std::endl;
     return EXIT_FAILURE;
   }

@@ -75,6 +75,30 @@ void ExtractColors(const std::string& image_path,
   }
 }
 
+// Pose verification with its counts added to the run's summary.
+Status VerifyPosesAndCount(const PoseVerificationOptions& options,
+                           const ViewGraph& view_graph,
+                           colmap::Reconstruction* work,
+                           const Interrupt& interrupt,
+                           GlobalMapperSummary* summary, std::string* counts) {
+  PoseVerificationSummary verification;
+  const Status status =
+      VerifyPoses(options, view_graph, work, &verification, interrupt);
+  if (!status.ok()) return status;
+  summary->num_replaced_images += verification.num_replaced;
+  summary->num_deregistered_images += verification.num_deregistered;
+  *counts = Counts({{"images_checked", verification.num_checked},
+                    {"replaced", verification.num_replaced},
+                    {"left_unregistered", verification.num_deregistered},
+                    {"images_registered", work->NumRegImages()}});
+  if (work->NumRegImages() < 2) {
+    return Status::Error(
+        "Pose verification left fewer than two registered images: no image "
+        "pose is supported by the structure that the others observe.");
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 bool GlobalMapperOptions::Check() const {
@@ -86,6 +110,7 @@ bool GlobalMapperOptions::Check() const {
       {"rotation averaging (ra_*)", rotation_averaging.Check()},
       {"tracks (track_*)", tracks.Check()},
       {"global positioning (gp_*)", global_positioning.Check()},
+      {"pose verification (pv_*)", pose_verification.Check()},
       {"bundle adjustment (ba_*)", bundle_adjustment.Check()},
       {"retriangulation (tri_*)", retriangulation.Check()},
       {"camera clustering (cc_*)", clustering.Check()},
@@ -110,6 +135,8 @@ GlobalMapper::GlobalMapper(GlobalMapperOptions options)
   options_.view_graph_calibration.num_threads = options_.num_threads;
   options_.global_positioning.num_threads = options_.num_threads;
   options_.bundle_adjustment.num_threads = options_.num_threads;
+  options_.pose_verification.num_threads = options_.num_threads;
+  options_.pose_verification.random_seed = options_.random_seed + 2;
   // The bundle adjustment after retriangulation is one joint round with the
   // solver settings of the rounds before it (one set of ba_* options), and
   // its own iteration cap.
@@ -240,9 +267,24 @@ Status GlobalMapper::Run(const std::string& database_path,
   }
   if (interrupt.IsStopped()) return Status::Cancelled();
 
-  // 7. Rounds of global bundle adjustment with filtering.
+  // 7. Every camera checked against the structure the others observe: a
+  // camera that positioning could not constrain is re-placed or left out.
+  if (!options_.skip_pose_verification) {
+    StageTimer stage("Pose verification", 6, &summary_, callbacks);
+    PoseVerificationOptions verification = options_.pose_verification;
+    verification.max_reproj_error_px =
+        verification.positioning_max_reproj_error_px;
+    std::string counts;
+    const Status status = VerifyPosesAndCount(verification, view_graph, work,
+                                              interrupt, &summary_, &counts);
+    if (!status.ok()) return status;
+    stage.Finish(counts);
+  }
+  if (interrupt.IsStopped()) return Status::Cancelled();
+
+  // 8. Rounds of global bundle adjustment with filtering.
   if (!options_.skip_bundle_adjustment) {
-    StageTimer stage("Bundle adjustment", 6, &summary_, callbacks);
+    StageTimer stage("Bundle adjustment", 7, &summary_, callbacks);
     const Status status = RunGlobalBundleAdjustment(
         options_.bundle_adjustment, work, interrupt, model_changed);
     if (!status.ok()) return status;
@@ -252,9 +294,9 @@ Status GlobalMapper::Run(const std::string& database_path,
   }
   if (interrupt.IsStopped()) return Status::Cancelled();
 
-  // 8. Retriangulation on the database matches, then bundle adjustment.
+  // 9. Retriangulation on the database matches, then bundle adjustment.
   if (!options_.skip_retriangulation) {
-    StageTimer stage("Retriangulation", 7, &summary_, callbacks);
+    StageTimer stage("Retriangulation", 8, &summary_, callbacks);
     const Status status =
         Retriangulate(options_.retriangulation, view_graph, work, interrupt);
     if (!status.ok()) return status;
@@ -265,9 +307,21 @@ Status GlobalMapper::Run(const std::string& database_path,
   }
   if (interrupt.IsStopped()) return Status::Cancelled();
 
-  // 9. Camera clustering into separate models, then output preparation.
+  // 10. The same check on the final poses, before anything is written.
+  if (!options_.skip_pose_verification) {
+    StageTimer stage("Final pose verification", 9, &summary_, callbacks);
+    std::string counts;
+    const Status status =
+        VerifyPosesAndCount(options_.pose_verification, view_graph, work,
+                            interrupt, &summary_, &counts);
+    if (!status.ok()) return status;
+    stage.Finish(counts);
+  }
+  if (interrupt.IsStopped()) return Status::Cancelled();
+
+  // 11. Camera clustering into separate models, then output preparation.
   {
-    StageTimer stage("Camera clustering", 8, &summary_, callbacks);
+    StageTimer stage("Camera clustering", 10, &summary_, callbacks);
     std::vector<std::vector<colmap::image_t>> clusters;
     if (options_.skip_clustering) {
       clusters.push_back(work->RegImageIds());
@@ -302,7 +356,9 @@ Status GlobalMapper::Run(const std::string& database_path,
             << std::setprecision(3) << summary_.total_seconds
             << " s: " << models->size() << " model(s), "
             << summary_.num_registered_images << " of " << summary_.num_images
-            << " images registered.";
+            << " images registered; pose verification re-placed "
+            << summary_.num_replaced_images << " and left out "
+            << summary_.num_deregistered_images << " image(s).";
   model_changed();
   return Status::Ok();
 }

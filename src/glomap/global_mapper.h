@@ -13,6 +13,7 @@
 #include "glomap/camera_clustering.h"
 #include "glomap/database_reader.h"
 #include "glomap/global_positioning.h"
+#include "glomap/pose_verification.h"
 #include "glomap/relative_pose.h"
 #include "glomap/retriangulation.h"
 #include "glomap/rotation_averaging.h"
@@ -32,6 +33,9 @@ struct GlobalMapperOptions {
   RotationAveragingOptions rotation_averaging;
   TrackEstablishmentOptions tracks;
   GlobalPositioningOptions global_positioning;
+  // Pose verification after global positioning (poses still coarse: a
+  // looser inlier threshold) and again before the output.
+  PoseVerificationOptions pose_verification;
   GlobalBundleAdjustmentOptions bundle_adjustment;
   RetriangulationOptions retriangulation;
   CameraClusteringOptions clustering;
@@ -41,6 +45,7 @@ struct GlobalMapperOptions {
   bool skip_bundle_adjustment = false;
   bool skip_retriangulation = false;
   bool skip_clustering = false;
+  bool skip_pose_verification = false;
 
   // Models (camera clusters) with fewer registered images are discarded.
   int min_model_size = 3;
@@ -67,6 +72,10 @@ struct GlobalMapperSummary {
   double total_seconds = 0;
   size_t num_images = 0;
   size_t num_registered_images = 0;
+  // Images that pose verification re-placed or left unregistered (after
+  // positioning and before the output together).
+  size_t num_replaced_images = 0;
+  size_t num_deregistered_images = 0;
 };
 
 // Hooks for a caller that shows progress (the GUI) or can cancel.
@@ -82,7 +91,7 @@ struct GlobalMapperCallbacks {
 
 class GlobalMapper {
  public:
-  static constexpr int kNumStages = 9;
+  static constexpr int kNumStages = 11;
 
   explicit GlobalMapper(GlobalMapperOptions options);
 

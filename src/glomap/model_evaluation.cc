@@ -165,7 +165,9 @@ bool ModelEvaluationOptions::Check() const {
   }
   return alignment_inlier_fraction_of_scale > 0.0 &&
          std::isfinite(alignment_inlier_fraction_of_scale) &&
-         alignment_max_num_trials > 0;
+         alignment_max_num_trials > 0 &&
+         max_position_error_fraction_of_scene > 0.0 &&
+         std::isfinite(max_position_error_fraction_of_scene);
 }
 
 double ComputeAuc(std::vector<double> errors, double threshold) {
@@ -371,15 +373,25 @@ Status EvaluateModel(const colmap::Reconstruction& model,
     distances_to_median.push_back((center - median_center).norm());
   }
   const double scene_scale = Median(distances_to_median);
+  for (size_t i = 0; i < gt_centers.size(); ++i) {
+    for (size_t j = i + 1; j < gt_centers.size(); ++j) {
+      evaluation->scene_size = std::max(evaluation->scene_size,
+                                        (gt_centers[i] - gt_centers[j]).norm());
+    }
+  }
+  const double max_position_error =
+      options.max_position_error_fraction_of_scene * evaluation->scene_size;
   evaluation->alignment_inlier_threshold =
       options.alignment_inlier_fraction_of_scale * scene_scale;
 
   std::vector<Eigen::Vector3d> model_centers;
   std::vector<Eigen::Vector3d> matched_gt_centers;
+  std::vector<std::string> matched_names;
   for (int i = 0; i < num_images; ++i) {
     if (matched_images[i] == nullptr) continue;
     model_centers.push_back(ProjectionCenter(*matched_images[i]));
     matched_gt_centers.push_back(gt_centers[i]);
+    matched_names.push_back(gt_images[i]->Name());
   }
   SimilarityAlignment alignment;
   evaluation->aligned =
@@ -401,14 +413,20 @@ Status EvaluateModel(const colmap::Reconstruction& model,
           alignment, model_centers[k], matched_gt_centers[k]));
       position_errors_with_failures.push_back(
           evaluation->position_errors.back());
+      if (!(evaluation->position_errors.back() <= max_position_error)) {
+        evaluation->cameras_beyond.push_back(matched_names[k]);
+      }
     }
     evaluation->position_error_mean = Mean(evaluation->position_errors);
     evaluation->position_error_median = Median(evaluation->position_errors);
   } else {
     position_errors_with_failures.assign(num_images, kInf);
+    evaluation->cameras_beyond = matched_names;
     evaluation->position_error_mean = kNaN;
     evaluation->position_error_median = kNaN;
   }
+  evaluation->num_cameras_beyond =
+      static_cast<int>(evaluation->cameras_beyond.size());
   for (const double threshold : options.position_auc_thresholds) {
     evaluation->position_aucs.push_back(
         ComputeAuc(position_errors_with_failures, threshold));
@@ -474,6 +492,12 @@ std::string EvaluationToJson(const ModelEvaluation& evaluation,
          << FormatThreshold(options.position_auc_thresholds[k])
          << "\": " << FormatJsonNumber(evaluation.position_aucs[k]) << ",\n";
   }
+  json << "  \"scene_size\": " << FormatJsonNumber(evaluation.scene_size)
+       << ",\n";
+  json << "  \"cameras_beyond\": " << evaluation.num_cameras_beyond << ",\n";
+  json << "  \"cameras_beyond_fraction\": "
+       << FormatJsonNumber(options.max_position_error_fraction_of_scene)
+       << ",\n";
   json << "  \"pos_err_mean\": "
        << FormatJsonNumber(evaluation.position_error_mean) << ",\n";
   json << "  \"pos_err_median\": "
@@ -511,6 +535,20 @@ std::string EvaluationToText(const ModelEvaluation& evaluation,
     text << "Position error: mean " << evaluation.position_error_mean
          << ", median " << evaluation.position_error_median << "\n";
   }
+  text << std::setprecision(6) << "Cameras beyond "
+       << FormatThreshold(100 * options.max_position_error_fraction_of_scene)
+       << "% of the scene size (" << evaluation.scene_size
+       << "): " << evaluation.num_cameras_beyond;
+  constexpr size_t kMaxNamesListed = 20;
+  for (size_t k = 0;
+       k < std::min(kMaxNamesListed, evaluation.cameras_beyond.size()); ++k) {
+    text << (k == 0 ? " (" : ", ") << evaluation.cameras_beyond[k];
+  }
+  if (!evaluation.cameras_beyond.empty()) {
+    text << (evaluation.cameras_beyond.size() > kMaxNamesListed ? ", ...)"
+                                                                : ")");
+  }
+  text << "\n";
   for (size_t k = 0; k < evaluation.position_aucs.size(); ++k) {
     text << "Position AUC @ "
          << FormatThreshold(options.position_auc_thresholds[k]) << ": "

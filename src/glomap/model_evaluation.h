@@ -36,6 +36,10 @@ struct ModelEvaluationOptions {
   // Seed of the alignment RANSAC, so that the same input gives the same
   // output.
   uint64_t random_seed = 0;
+  // A registered camera is "placed wrongly" when its position error after
+  // the alignment exceeds this fraction of the scene size (the largest
+  // distance between two ground-truth camera centres).
+  double max_position_error_fraction_of_scene = 0.05;
 
   bool Check() const;
 };
@@ -79,6 +83,16 @@ struct ModelEvaluation {
   // Position AUC in percent, one per options.position_auc_thresholds;
   // unregistered images count as failures.
   std::vector<double> position_aucs;
+
+  // Scene size: the largest distance between two ground-truth camera
+  // centres, in ground-truth units.
+  double scene_size = 0.0;
+  // Registered cameras farther from the ground truth than
+  // options.max_position_error_fraction_of_scene * scene_size after the
+  // alignment (all registered cameras when no alignment could be fitted),
+  // with their names in ground-truth image-id order.
+  int num_cameras_beyond = 0;
+  std::vector<std::string> cameras_beyond;
 };
 
 // Area under the recall curve of `errors` up to `threshold`, divided by the
