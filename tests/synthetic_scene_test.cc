@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "base/database.h"
+#include "base/essential_matrix.h"
 #include "base/pose.h"
 #include "estimators/two_view_geometry.h"
 #include "glomap/database_reader.h"
@@ -26,11 +27,11 @@ struct Scene {
 };
 
 void MakeScene(const SyntheticSceneOptions& options, const std::string& name,
-               Scene* scene) {
+               Scene* scene, SyntheticSceneShapes* shapes = nullptr) {
   const std::string dir = testing::CreateTestDir("synthetic_scene_" + name);
   scene->database_path = dir + "/database.db";
-  const Status status =
-      WriteSyntheticScene(options, scene->database_path, &scene->ground_truth);
+  const Status status = WriteSyntheticScene(options, scene->database_path,
+                                            &scene->ground_truth, shapes);
   ASSERT_TRUE(status.ok()) << status.message();
   DatabaseReaderOptions reader_options;
   const Status read_status =
@@ -121,7 +122,10 @@ void CheckGroundTruth(const SyntheticSceneOptions& options,
     for (colmap::point2D_t k = 0; k < image.NumPoints2D(); ++k) {
       ASSERT_EQ(image.Point2D(k).XY(), gt_image.Point2D(k).XY());
     }
-    EXPECT_LE(image.NumPoints2D(), options.max_keypoints_per_image);
+    // Symmetric-structure keypoints come on top of the detector's limit.
+    if (options.num_wrong_rotation_pairs == 0) {
+      EXPECT_LE(image.NumPoints2D(), options.max_keypoints_per_image);
+    }
   }
   EXPECT_EQ(gt.Image(1).Name(), "image0001.png");
 
@@ -343,6 +347,368 @@ TEST(SyntheticScene, Deterministic) {
             second.ground_truth.NumPoints3D());
 }
 
+// The stored pair of two images, or null if the database has none.
+const ImagePair* FindPair(const ViewGraph& view_graph,
+                          colmap::image_t image_id1,
+                          colmap::image_t image_id2) {
+  for (const auto& [pair_id, pair] : view_graph.Pairs()) {
+    if ((pair.image_id1 == image_id1 && pair.image_id2 == image_id2) ||
+        (pair.image_id1 == image_id2 && pair.image_id2 == image_id1)) {
+      return &pair;
+    }
+  }
+  return nullptr;
+}
+
+// True cam2_from_cam1 rotation of two ground-truth images.
+Eigen::Matrix3d TrueRelativeRotation(const colmap::Reconstruction& gt,
+                                     colmap::image_t image_id1,
+                                     colmap::image_t image_id2) {
+  return gt.Image(image_id2).RotationMatrix() *
+         gt.Image(image_id1).RotationMatrix().transpose();
+}
+
+double RotationAngleDeg(const Eigen::Matrix3d& rotation) {
+  return Eigen::AngleAxisd(rotation).angle() * 180 / M_PI;
+}
+
+// The relative rotation that a pair's stored E and inliers give (the
+// decomposition that puts the inliers in front of both cameras).
+Eigen::Matrix3d RotationFromStoredE(const colmap::Reconstruction& gt,
+                                    const ImagePair& pair) {
+  const colmap::Image& image1 = gt.Image(pair.image_id1);
+  const colmap::Image& image2 = gt.Image(pair.image_id2);
+  const colmap::Camera& camera1 = gt.Camera(image1.CameraId());
+  const colmap::Camera& camera2 = gt.Camera(image2.CameraId());
+  std::vector<Eigen::Vector2d> points1, points2;
+  for (const auto& match : pair.matches) {
+    points1.push_back(
+        camera1.ImageToWorld(image1.Point2D(match.point2D_idx1).XY()));
+    points2.push_back(
+        camera2.ImageToWorld(image2.Point2D(match.point2D_idx2).XY()));
+  }
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  std::vector<Eigen::Vector3d> points3D;
+  colmap::PoseFromEssentialMatrix(pair.E, points1, points2, &R, &t, &points3D);
+  return R;
+}
+
+bool Contains(const std::vector<colmap::image_t>& image_ids,
+              colmap::image_t image_id) {
+  return std::find(image_ids.begin(), image_ids.end(), image_id) !=
+         image_ids.end();
+}
+
+TEST(SyntheticScene, DefaultOptionsMakeNoFailureShapes) {
+  SyntheticSceneOptions options;
+  options.num_images = 12;
+  options.verification = "ground_truth";
+  Scene scene;
+  SyntheticSceneShapes shapes;
+  shapes.weak_group_image_ids = {1};  // must be cleared
+  MakeScene(options, "no_shapes", &scene, &shapes);
+  EXPECT_TRUE(shapes.weak_group_image_ids.empty());
+  EXPECT_TRUE(shapes.weak_group_anchor_image_ids.empty());
+  EXPECT_TRUE(shapes.wrong_rotation_pairs.empty());
+  EXPECT_TRUE(shapes.pure_rotation_image_ids.empty());
+  EXPECT_TRUE(shapes.long_baseline_image_ids.empty());
+  EXPECT_EQ(shapes.weak_bridge_pair.first, 0);
+}
+
+TEST(SyntheticScene, WeakGroup) {
+  SyntheticSceneOptions options;
+  options.num_images = 40;
+  options.verification = "ground_truth";
+  options.weak_group_size = 2;
+  options.weak_group_num_anchors = 1;
+  options.weak_group_max_matches_to_rest = 30;
+  Scene scene;
+  SyntheticSceneShapes shapes;
+  MakeScene(options, "weak_group", &scene, &shapes);
+  CheckGroundTruth(options, scene);
+  ASSERT_EQ(shapes.weak_group_image_ids.size(), 2u);
+  ASSERT_EQ(shapes.weak_group_anchor_image_ids.size(), 1u);
+  const colmap::image_t group1 = shapes.weak_group_image_ids[0];
+  const colmap::image_t group2 = shapes.weak_group_image_ids[1];
+  const colmap::image_t anchor = shapes.weak_group_anchor_image_ids[0];
+  const colmap::Reconstruction& gt = scene.ground_truth;
+  // Neighbours on the ring (40 images: 9 deg apart), the anchor next to them.
+  const double ring_step =
+      (gt.Image(1).ProjectionCenter() - gt.Image(2).ProjectionCenter()).norm();
+  EXPECT_LT((gt.Image(group1).ProjectionCenter() -
+             gt.Image(group2).ProjectionCenter())
+                .norm(),
+            1.5 * ring_step);
+  EXPECT_LT((gt.Image(anchor).ProjectionCenter() -
+             gt.Image(group1).ProjectionCenter())
+                .norm(),
+            2.5 * ring_step);
+
+  // Strong inside the group and to the anchor, weak to the rest.
+  const ImagePair* inside = FindPair(scene.view_graph, group1, group2);
+  ASSERT_NE(inside, nullptr);
+  EXPECT_GT(inside->matches.size(), 800);
+  for (const colmap::image_t image_id : {group1, group2}) {
+    const ImagePair* to_anchor = FindPair(scene.view_graph, image_id, anchor);
+    ASSERT_NE(to_anchor, nullptr);
+    EXPECT_GT(to_anchor->matches.size(), 600);
+  }
+  size_t num_weak_pairs = 0;
+  for (const auto& [pair_id, pair] : scene.view_graph.Pairs()) {
+    const bool in1 = pair.image_id1 == group1 || pair.image_id1 == group2;
+    const bool in2 = pair.image_id2 == group1 || pair.image_id2 == group2;
+    if (in1 == in2 || pair.image_id1 == anchor || pair.image_id2 == anchor) {
+      continue;
+    }
+    EXPECT_LE(pair.num_raw_matches, 30);
+    EXPECT_GT(TrueMatchFraction(gt, pair), 0.99);
+    ++num_weak_pairs;
+  }
+  EXPECT_GT(num_weak_pairs, 20);
+
+  // Only the group and the anchor see the patch: their points are the only
+  // ones seen by no other image while shared by three.
+  size_t num_patch_points = 0;
+  for (const auto& [point3D_id, point3D] : gt.Points3D()) {
+    std::set<colmap::image_t> viewers;
+    for (const auto& element : point3D.Track().Elements()) {
+      viewers.insert(element.image_id);
+    }
+    if (viewers == std::set<colmap::image_t>{group1, group2, anchor}) {
+      ++num_patch_points;
+    }
+  }
+  EXPECT_GT(num_patch_points, 500);
+}
+
+TEST(SyntheticScene, WrongRotationPairsWithGroundTruthVerification) {
+  SyntheticSceneOptions options;
+  options.num_images = 40;
+  options.verification = "ground_truth";
+  options.weak_group_size = 2;
+  options.num_wrong_rotation_pairs = 4;
+  options.wrong_rotation_angle_deg = 30;
+  options.wrong_match_ratio = 0.2;
+  Scene scene;
+  SyntheticSceneShapes shapes;
+  MakeScene(options, "wrong_rotation_gt", &scene, &shapes);
+  CheckGroundTruth(options, scene);
+  ASSERT_EQ(shapes.wrong_rotation_pairs.size(), 4u);
+  size_t num_stored = 0;
+  for (const auto& wrong : shapes.wrong_rotation_pairs) {
+    SCOPED_TRACE(std::to_string(wrong.image_id1) + "-" +
+                 std::to_string(wrong.image_id2));
+    // Between the group and the rest; the turned image is not in the group.
+    EXPECT_NE(Contains(shapes.weak_group_image_ids, wrong.image_id1),
+              Contains(shapes.weak_group_image_ids, wrong.image_id2));
+    EXPECT_FALSE(Contains(shapes.weak_group_image_ids, wrong.turned_image_id));
+    EXPECT_FALSE(Contains(shapes.weak_group_anchor_image_ids, wrong.image_id1));
+    EXPECT_FALSE(Contains(shapes.weak_group_anchor_image_ids, wrong.image_id2));
+    const ImagePair* pair =
+        FindPair(scene.view_graph, wrong.image_id1, wrong.image_id2);
+    if (wrong.num_matches < 30) continue;  // too little overlap to matter
+    ASSERT_NE(pair, nullptr);
+    ++num_stored;
+    EXPECT_EQ(pair->config, TwoViewGeometry::CALIBRATED);
+    // No match sees the same point in both images, yet the inliers are
+    // nearly all the symmetric matches, consistent with the stored E.
+    EXPECT_LT(TrueMatchFraction(scene.ground_truth, *pair), 0.01);
+    EXPECT_GT(pair->matches.size(), 0.95 * wrong.num_matches);
+    // The stored geometry's rotation is off by the set angle.
+    const Eigen::Matrix3d true_rotation = TrueRelativeRotation(
+        scene.ground_truth, pair->image_id1, pair->image_id2);
+    const Eigen::Matrix3d stored_rotation =
+        RotationFromStoredE(scene.ground_truth, *pair);
+    EXPECT_NEAR(RotationAngleDeg(stored_rotation * true_rotation.transpose()),
+                30, 1e-6);
+  }
+  EXPECT_GE(num_stored, 3);
+}
+
+TEST(SyntheticScene, WrongRotationPairsWithColmapVerification) {
+  SyntheticSceneOptions options;
+  options.num_images = 20;
+  options.max_pairs_per_image = 4;  // COLMAP's RANSAC takes ~50 ms a pair
+  options.verification = "colmap";
+  options.weak_group_size = 2;
+  options.num_wrong_rotation_pairs = 2;
+  options.wrong_rotation_pairs = "group_to_anchors";
+  options.weak_group_num_anchors = 2;
+  options.wrong_rotation_angle_deg = 20;
+  Scene scene;
+  SyntheticSceneShapes shapes;
+  MakeScene(options, "wrong_rotation_colmap", &scene, &shapes);
+  ASSERT_EQ(shapes.wrong_rotation_pairs.size(), 2u);
+  for (const auto& wrong : shapes.wrong_rotation_pairs) {
+    SCOPED_TRACE(std::to_string(wrong.image_id1) + "-" +
+                 std::to_string(wrong.image_id2));
+    EXPECT_TRUE(
+        Contains(shapes.weak_group_anchor_image_ids, wrong.turned_image_id));
+    const ImagePair* pair =
+        FindPair(scene.view_graph, wrong.image_id1, wrong.image_id2);
+    ASSERT_NE(pair, nullptr);
+    // COLMAP's verifier finds the symmetric matches convincing.
+    EXPECT_EQ(pair->config, TwoViewGeometry::CALIBRATED);
+    EXPECT_GT(pair->matches.size(), 0.9 * wrong.num_matches);
+    EXPECT_GT(pair->matches.size(), 300);
+    const Eigen::Matrix3d true_rotation = TrueRelativeRotation(
+        scene.ground_truth, pair->image_id1, pair->image_id2);
+    const Eigen::Matrix3d stored_rotation =
+        RotationFromStoredE(scene.ground_truth, *pair);
+    EXPECT_NEAR(RotationAngleDeg(stored_rotation * true_rotation.transpose()),
+                20, 1);
+  }
+}
+
+TEST(SyntheticScene, PureRotationImages) {
+  SyntheticSceneOptions options;
+  options.num_images = 40;
+  options.verification = "ground_truth";
+  options.num_pure_rotation_images = 2;
+  Scene scene;
+  SyntheticSceneShapes shapes;
+  MakeScene(options, "pure_rotation", &scene, &shapes);
+  CheckGroundTruth(options, scene);
+  ASSERT_EQ(shapes.pure_rotation_image_ids.size(), 2u);
+  const colmap::Reconstruction& gt = scene.ground_truth;
+  for (const auto& [moved, partner] : shapes.pure_rotation_image_ids) {
+    EXPECT_NE(moved, partner);
+    EXPECT_LT((gt.Image(moved).ProjectionCenter() -
+               gt.Image(partner).ProjectionCenter())
+                  .norm(),
+              1e-9);
+    // Turned by about one ring step (9 deg) around the shared centre.
+    const double angle_deg =
+        RotationAngleDeg(TrueRelativeRotation(gt, moved, partner));
+    EXPECT_GT(angle_deg, 3);
+    EXPECT_LT(angle_deg, 20);
+    // Stored as COLMAP stores a panorama pair: a homography, no E.
+    const ImagePair* pair = FindPair(scene.view_graph, moved, partner);
+    ASSERT_NE(pair, nullptr);
+    EXPECT_EQ(pair->config, TwoViewGeometry::PLANAR_OR_PANORAMIC);
+    EXPECT_GT(pair->matches.size(), 200);
+    EXPECT_EQ(pair->E, Eigen::Matrix3d::Zero());
+    const colmap::Image& image1 = gt.Image(pair->image_id1);
+    const colmap::Image& image2 = gt.Image(pair->image_id2);
+    for (const auto& match : pair->matches) {
+      const Eigen::Vector3d x1 =
+          image1.Point2D(match.point2D_idx1).XY().homogeneous();
+      const Eigen::Vector2d& x2 = image2.Point2D(match.point2D_idx2).XY();
+      // Lens distortion is small: within a few pixels of the homography.
+      EXPECT_LT(((pair->H * x1).hnormalized() - x2).norm(), 12);
+    }
+  }
+}
+
+TEST(SyntheticScene, LongBaselineImages) {
+  SyntheticSceneOptions options;
+  options.num_images = 40;
+  options.verification = "ground_truth";
+  options.num_long_baseline_images = 1;
+  options.long_baseline_num_skipped_neighbors = 8;
+  Scene scene;
+  SyntheticSceneShapes shapes;
+  MakeScene(options, "long_baseline", &scene, &shapes);
+  CheckGroundTruth(options, scene);
+  ASSERT_EQ(shapes.long_baseline_image_ids.size(), 1u);
+  const colmap::image_t image_id = shapes.long_baseline_image_ids[0];
+  const colmap::Reconstruction& gt = scene.ground_truth;
+  const Eigen::Vector3d center = gt.Image(image_id).ProjectionCenter();
+  std::vector<std::pair<double, colmap::image_t>> by_distance;
+  for (const auto& [other_id, image] : gt.Images()) {
+    if (other_id == image_id) continue;
+    by_distance.emplace_back((image.ProjectionCenter() - center).norm(),
+                             other_id);
+  }
+  std::sort(by_distance.begin(), by_distance.end());
+  for (size_t k = 0; k < by_distance.size(); ++k) {
+    const bool matched =
+        FindPair(scene.view_graph, image_id, by_distance[k].second) != nullptr;
+    if (k < 8) {
+      EXPECT_FALSE(matched) << k;
+    }
+  }
+  size_t num_pairs = 0;
+  for (const auto& [pair_id, pair] : scene.view_graph.Pairs()) {
+    num_pairs += pair.image_id1 == image_id || pair.image_id2 == image_id;
+  }
+  EXPECT_GT(num_pairs, 5);
+}
+
+TEST(SyntheticScene, WeakBridge) {
+  SyntheticSceneOptions options;
+  options.num_images = 40;
+  options.verification = "ground_truth";
+  options.weak_bridge = true;
+  options.weak_bridge_max_matches = 40;
+  Scene scene;
+  SyntheticSceneShapes shapes;
+  MakeScene(options, "weak_bridge", &scene, &shapes);
+  CheckGroundTruth(options, scene);
+  ASSERT_NE(shapes.weak_bridge_pair.first, 0);
+  EXPECT_EQ(shapes.weak_bridge_half_image_ids.size(), 20u);
+  EXPECT_TRUE(Contains(shapes.weak_bridge_half_image_ids,
+                       shapes.weak_bridge_pair.first));
+  EXPECT_FALSE(Contains(shapes.weak_bridge_half_image_ids,
+                        shapes.weak_bridge_pair.second));
+  size_t num_crossing = 0;
+  for (const auto& [pair_id, pair] : scene.view_graph.Pairs()) {
+    if (Contains(shapes.weak_bridge_half_image_ids, pair.image_id1) ==
+        Contains(shapes.weak_bridge_half_image_ids, pair.image_id2)) {
+      continue;
+    }
+    ++num_crossing;
+    EXPECT_LE(pair.num_raw_matches, 40);
+    EXPECT_GE(pair.matches.size(), 30);
+  }
+  EXPECT_EQ(num_crossing, 1);
+}
+
+TEST(SyntheticScene, FailureShapesAreDeterministic) {
+  SyntheticSceneOptions options;
+  options.num_images = 30;
+  options.verification = "ground_truth";
+  options.wrong_match_ratio = 0.2;
+  options.weak_group_size = 3;
+  options.weak_group_num_anchors = 2;
+  options.num_wrong_rotation_pairs = 4;
+  options.num_pure_rotation_images = 1;
+  options.num_long_baseline_images = 1;
+  options.weak_bridge = true;
+  options.num_threads = 1;
+  Scene first, second, other_seed;
+  SyntheticSceneShapes first_shapes, second_shapes, other_shapes;
+  MakeScene(options, "shapes_a", &first, &first_shapes);
+  options.num_threads = 2;
+  MakeScene(options, "shapes_b", &second, &second_shapes);
+  options.random_seed = 1;
+  MakeScene(options, "shapes_c", &other_seed, &other_shapes);
+  EXPECT_EQ(ContentDigest(first), ContentDigest(second));
+  EXPECT_NE(ContentDigest(first), ContentDigest(other_seed));
+  EXPECT_EQ(first_shapes.weak_group_image_ids,
+            second_shapes.weak_group_image_ids);
+  EXPECT_EQ(first_shapes.wrong_rotation_pairs.size(), 4u);
+  EXPECT_EQ(first_shapes.pure_rotation_image_ids,
+            second_shapes.pure_rotation_image_ids);
+  EXPECT_EQ(first_shapes.weak_bridge_pair, second_shapes.weak_bridge_pair);
+  // No image plays two parts.
+  std::set<colmap::image_t> special;
+  size_t num_special = 0;
+  for (const auto* ids : {&first_shapes.weak_group_image_ids,
+                          &first_shapes.weak_group_anchor_image_ids,
+                          &first_shapes.long_baseline_image_ids}) {
+    special.insert(ids->begin(), ids->end());
+    num_special += ids->size();
+  }
+  for (const auto& [moved, partner] : first_shapes.pure_rotation_image_ids) {
+    special.insert({moved, partner});
+    num_special += 2;
+  }
+  EXPECT_EQ(special.size(), num_special);
+  EXPECT_EQ(num_special, 3u + 2u + 1u + 2u);
+}
+
 TEST(SyntheticScene, Errors) {
   const std::string dir = testing::CreateTestDir("synthetic_scene_errors");
   SyntheticSceneOptions options;
@@ -370,6 +736,21 @@ TEST(SyntheticScene, Errors) {
   EXPECT_FALSE(options.Check());
   options = SyntheticSceneOptions();
   options.verification = "magic";
+  EXPECT_FALSE(options.Check());
+  options = SyntheticSceneOptions();
+  options.num_wrong_rotation_pairs = 1;  // group_to_rest without a group
+  EXPECT_FALSE(options.Check());
+  options.wrong_rotation_pairs = "any";
+  EXPECT_TRUE(options.Check());
+  options.wrong_rotation_angle_deg = 0;
+  EXPECT_FALSE(options.Check());
+  options = SyntheticSceneOptions();
+  options.weak_group_size = 8;  // with its anchor, more than half the images
+  options.num_images = 16;
+  EXPECT_FALSE(options.Check());
+  options.weak_group_size = 7;
+  EXPECT_TRUE(options.Check());
+  options.wrong_rotation_pairs = "all";
   EXPECT_FALSE(options.Check());
   EXPECT_TRUE(SyntheticSceneOptions().Check());
   status = WriteSyntheticScene(SyntheticSceneOptions(),

@@ -165,6 +165,9 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "A pose needs this many inlier correspondences");
   b.Add("pv_min_inlier_ratio", &pv.min_inlier_ratio,
         "A pose needs this inlier ratio");
+  b.Add("pv_max_inliers_per_image", &pv.max_inliers_per_image,
+        "Poses are scored counting at most this many inliers through each "
+        "other image");
   b.Add("pv_min_inlier_fraction_of_estimate",
         &pv.min_inlier_fraction_of_estimate,
         "The current pose must explain this fraction of the re-estimated "
@@ -177,6 +180,8 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Checks repeat without the failing images' points, at most this "
         "often");
   b.Add("pv_ransac_confidence", &pv.ransac_confidence, "RANSAC confidence");
+  b.Add("pv_ransac_min_num_trials", &pv.ransac_min_num_trials,
+        "Minimum RANSAC trials");
   b.Add("pv_ransac_max_num_trials", &pv.ransac_max_num_trials,
         "Maximum RANSAC trials");
 

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "glomap/database_reader.h"
 #include "glomap/synthetic_scene.h"
@@ -22,6 +23,42 @@ int Fail(const std::string& message) {
   return EXIT_FAILURE;
 }
 
+std::string JoinIds(const std::vector<colmap::image_t>& image_ids) {
+  std::string text;
+  for (const colmap::image_t image_id : image_ids) {
+    text += (text.empty() ? "" : " ") + std::to_string(image_id);
+  }
+  return text;
+}
+
+// One line per failure shape, with image ids, for scripts and tests.
+void PrintShapes(const glomap::SyntheticSceneShapes& shapes) {
+  if (!shapes.weak_group_image_ids.empty()) {
+    std::cout << "Weak group: images " << JoinIds(shapes.weak_group_image_ids)
+              << "; anchors " << JoinIds(shapes.weak_group_anchor_image_ids)
+              << std::endl;
+  }
+  for (const auto& pair : shapes.wrong_rotation_pairs) {
+    std::cout << "Wrong-rotation pair: images " << pair.image_id1 << " "
+              << pair.image_id2 << ", turned image " << pair.turned_image_id
+              << ", " << pair.num_matches << " symmetric matches" << std::endl;
+  }
+  for (const auto& [moved, partner] : shapes.pure_rotation_image_ids) {
+    std::cout << "Pure-rotation image: " << moved << " at the centre of "
+              << partner << std::endl;
+  }
+  if (!shapes.long_baseline_image_ids.empty()) {
+    std::cout << "Long-baseline images: "
+              << JoinIds(shapes.long_baseline_image_ids) << std::endl;
+  }
+  if (shapes.weak_bridge_pair.first != 0) {
+    std::cout << "Weak bridge: images " << shapes.weak_bridge_pair.first << " "
+              << shapes.weak_bridge_pair.second << "; half of "
+              << shapes.weak_bridge_pair.first << ": "
+              << JoinIds(shapes.weak_bridge_half_image_ids) << std::endl;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -29,6 +66,7 @@ int main(int argc, char** argv) {
   glomap::SyntheticSceneOptions options;
   std::string output_path;
   int prior_focal_length = options.prior_focal_length ? 1 : 0;
+  int weak_bridge = options.weak_bridge ? 1 : 0;
 
   po::options_description description("make_synthetic_scene options");
   description.add_options()("help,h", "Print this help.")(
@@ -83,6 +121,62 @@ int main(int argc, char** argv) {
           ->default_value(options.verification),
       "colmap (COLMAP's two-view geometry estimation) or ground_truth "
       "(fast).")(
+      "weak_group_size",
+      po::value<int>(&options.weak_group_size)
+          ->default_value(options.weak_group_size),
+      "Failure shape: a group of this many neighbouring images (0: none) "
+      "that also see a private patch, strongly matched among themselves and "
+      "to their anchors, weakly to the rest.")(
+      "weak_group_num_patch_points",
+      po::value<int>(&options.weak_group_num_patch_points)
+          ->default_value(options.weak_group_num_patch_points),
+      "Points on the weak group's private patch.")(
+      "weak_group_max_matches_to_rest",
+      po::value<int>(&options.weak_group_max_matches_to_rest)
+          ->default_value(options.weak_group_max_matches_to_rest),
+      "True raw matches kept at most per pair of a group image and a "
+      "non-anchor image.")(
+      "weak_group_num_anchors",
+      po::value<int>(&options.weak_group_num_anchors)
+          ->default_value(options.weak_group_num_anchors),
+      "Non-group images nearest to the group that see the patch and keep "
+      "all matches with the group (0 to 5).")(
+      "num_wrong_rotation_pairs",
+      po::value<int>(&options.num_wrong_rotation_pairs)
+          ->default_value(options.num_wrong_rotation_pairs),
+      "Failure shape: pairs matched on symmetric structure, consistent but "
+      "with a relative rotation wrong by --wrong_rotation_angle_deg (0: "
+      "none).")(
+      "wrong_rotation_angle_deg",
+      po::value<double>(&options.wrong_rotation_angle_deg)
+          ->default_value(options.wrong_rotation_angle_deg),
+      "Error of the wrong-rotation pairs' relative rotation, degrees.")(
+      "wrong_rotation_pairs",
+      po::value<std::string>(&options.wrong_rotation_pairs)
+          ->default_value(options.wrong_rotation_pairs),
+      "Which pairs get a wrong rotation: group_to_rest, group_to_anchors or "
+      "any.")(
+      "num_pure_rotation_images",
+      po::value<int>(&options.num_pure_rotation_images)
+          ->default_value(options.num_pure_rotation_images),
+      "Failure shape: images moved to the centre of their nearest image "
+      "(pairs without baseline; 0: none).")(
+      "num_long_baseline_images",
+      po::value<int>(&options.num_long_baseline_images)
+          ->default_value(options.num_long_baseline_images),
+      "Failure shape: images not matched to their nearest images, linked "
+      "only across wide baselines (0: none).")(
+      "long_baseline_num_skipped_neighbors",
+      po::value<int>(&options.long_baseline_num_skipped_neighbors)
+          ->default_value(options.long_baseline_num_skipped_neighbors),
+      "How many nearest images a long-baseline image is not matched to.")(
+      "weak_bridge", po::value<int>(&weak_bridge)->default_value(weak_bridge),
+      "Failure shape, 1: two halves of the scene joined by a single pair "
+      "with at most --weak_bridge_max_matches matches; 0: off.")(
+      "weak_bridge_max_matches",
+      po::value<int>(&options.weak_bridge_max_matches)
+          ->default_value(options.weak_bridge_max_matches),
+      "True raw matches kept at most in the weak bridge's pair.")(
       "num_threads",
       po::value<int>(&options.num_threads)->default_value(options.num_threads),
       "Threads (-1: all cores).")(
@@ -105,6 +199,10 @@ int main(int argc, char** argv) {
     return Fail("--prior_focal_length must be 0 or 1");
   }
   options.prior_focal_length = prior_focal_length == 1;
+  if (weak_bridge != 0 && weak_bridge != 1) {
+    return Fail("--weak_bridge must be 0 or 1");
+  }
+  options.weak_bridge = weak_bridge == 1;
 
   if (!options.Check()) {
     // WriteSyntheticScene explains which option is wrong.
@@ -122,8 +220,9 @@ int main(int argc, char** argv) {
   }
 
   colmap::Reconstruction ground_truth;
-  const glomap::Status status =
-      glomap::WriteSyntheticScene(options, database_path, &ground_truth);
+  glomap::SyntheticSceneShapes shapes;
+  const glomap::Status status = glomap::WriteSyntheticScene(
+      options, database_path, &ground_truth, &shapes);
   if (!status.ok()) return Fail(status.message());
   ground_truth.WriteText(gt_path);
 
@@ -141,5 +240,6 @@ int main(int argc, char** argv) {
             << " verified pairs (" << options.layout << ", "
             << options.verification << " verification) to " << database_path
             << "; ground truth in " << gt_path << std::endl;
+  PrintShapes(shapes);
   return EXIT_SUCCESS;
 }

@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <random>
 #include <sstream>
+#include <tuple>
 #include <unordered_map>
 #include <utility>
 
@@ -13,33 +15,64 @@
 #include "estimators/absolute_pose.h"
 #include "estimators/pose.h"
 #include "glomap/parallel_for.h"
-#include "optim/loransac.h"
-#include "util/random.h"
 
 namespace glomap {
 namespace {
 
 using Outcome = PoseVerificationResult::Outcome;
 
-// One 2D-3D correspondence of the image being checked.
+// One 2D-3D correspondence of the image being checked, with the image
+// whose evidence it is (the other image of the matched pair, or one of the
+// other trusted images that observe the point).
 struct Correspondence {
   colmap::point2D_t point2D_idx;
   colmap::point3D_t point3D_id;
+  colmap::image_t source;
 
   bool operator<(const Correspondence& other) const {
-    return std::tie(point2D_idx, point3D_id) <
-           std::tie(other.point2D_idx, other.point3D_id);
+    return std::tie(point2D_idx, point3D_id, source) <
+           std::tie(other.point2D_idx, other.point3D_id, other.source);
   }
   bool operator==(const Correspondence& other) const {
-    return point2D_idx == other.point2D_idx && point3D_id == other.point3D_id;
+    return point2D_idx == other.point2D_idx && point3D_id == other.point3D_id &&
+           source == other.source;
+  }
+};
+
+// The distinct (keypoint, point) correspondences of one image, each with
+// the indices (0..num_sources-1) of its source images.
+struct CorrespondenceSet {
+  std::vector<colmap::point2D_t> point2D_idxs;
+  std::vector<colmap::point3D_t> point3D_ids;
+  std::vector<Eigen::Vector2d> normalized;  // Camera::ImageToWorld.
+  std::vector<Eigen::Vector3d> xyz;
+  // Sources of correspondence k: source_idxs[source_begin[k]..[k+1]).
+  std::vector<size_t> source_begin;
+  std::vector<uint32_t> source_idxs;
+  size_t num_sources = 0;
+
+  size_t size() const { return point2D_idxs.size(); }
+};
+
+// How well a pose explains a correspondence set.
+struct PoseScore {
+  size_t num_inliers = 0;
+  // Sum over source images of min(inliers through it, cap): a single
+  // strongly matched image cannot outvote many others.
+  size_t capped_score = 0;
+  std::vector<char> inliers;
+
+  bool operator>(const PoseScore& other) const {
+    return std::tie(capped_score, num_inliers) >
+           std::tie(other.capped_score, other.num_inliers);
   }
 };
 
 // What the parallel part computes per image; applied serially afterwards.
 struct Check {
   PoseVerificationResult result;
-  std::vector<Correspondence> correspondences;
-  // The refined RANSAC pose and its inliers (parallel to correspondences).
+  CorrespondenceSet correspondences;
+  // The estimated pose and its inliers (parallel to correspondences).
   Eigen::Vector4d qvec = Eigen::Vector4d(1, 0, 0, 0);
   Eigen::Vector3d tvec = Eigen::Vector3d::Zero();
   std::vector<char> estimate_inliers;
@@ -83,19 +116,31 @@ bool IsInlier(const colmap::Camera& camera, const Eigen::Matrix3x4d& pose,
   return (projected - xy).squaredNorm() <= max_error_px * max_error_px;
 }
 
-size_t CountInliers(const colmap::Camera& camera, const Eigen::Matrix3x4d& pose,
-                    const std::vector<Eigen::Vector2d>& points2D,
-                    const std::vector<Eigen::Vector3d>& points3D,
-                    double max_error_px, std::vector<char>* inliers) {
-  inliers->assign(points2D.size(), 0);
-  size_t num_inliers = 0;
-  for (size_t k = 0; k < points2D.size(); ++k) {
-    if (IsInlier(camera, pose, points2D[k], points3D[k], max_error_px)) {
-      (*inliers)[k] = 1;
-      ++num_inliers;
+// Inliers by the reprojection error on the normalized image plane
+// (`max_error` = the pixel threshold divided by the focal length).
+PoseScore ScorePose(const CorrespondenceSet& set, const Eigen::Matrix3x4d& pose,
+                    double max_error, size_t max_inliers_per_source) {
+  PoseScore score;
+  score.inliers.assign(set.size(), 0);
+  std::vector<size_t> per_source(set.num_sources, 0);
+  const double max_squared_error = max_error * max_error;
+  for (size_t k = 0; k < set.size(); ++k) {
+    const Eigen::Vector3d in_camera = pose * set.xyz[k].homogeneous();
+    if (!(in_camera.z() > std::numeric_limits<double>::epsilon())) continue;
+    if ((in_camera.hnormalized() - set.normalized[k]).squaredNorm() >
+        max_squared_error) {
+      continue;
+    }
+    score.inliers[k] = 1;
+    ++score.num_inliers;
+    for (size_t s = set.source_begin[k]; s < set.source_begin[k + 1]; ++s) {
+      ++per_source[set.source_idxs[s]];
     }
   }
-  return num_inliers;
+  for (const size_t count : per_source) {
+    score.capped_score += std::min(count, max_inliers_per_source);
+  }
+  return score;
 }
 
 std::string DescribeChange(const PoseVerificationResult& r,
@@ -156,29 +201,40 @@ bool Observes(const colmap::Reconstruction& model, colmap::point3D_t point3D_id,
 // matched to keypoints of other registered images that observe a point;
 // only points that at least `min_point_support` trusted images other than
 // this one observe.
-std::vector<Correspondence> FindCorrespondences(
+CorrespondenceSet FindCorrespondences(
     const PoseVerificationOptions& options, const colmap::Reconstruction& model,
-    colmap::image_t image_id, bool image_is_suspect,
-    const std::vector<const ImagePair*>& pairs,
-    const std::unordered_map<colmap::point3D_t, int>& num_trusted_observers) {
+    colmap::image_t image_id, const std::vector<const ImagePair*>& pairs,
+    const std::unordered_map<colmap::point3D_t, int>& num_trusted_observers,
+    const std::unordered_map<colmap::image_t, char>& suspect_by_id) {
   const colmap::Image& image = model.Image(image_id);
-  std::vector<Correspondence> correspondences;
-  auto add = [&](colmap::point2D_t point2D_idx, colmap::point3D_t point3D_id,
-                 bool observed_by_image) {
-    const int support = num_trusted_observers.at(point3D_id) -
-                        (observed_by_image && !image_is_suspect ? 1 : 0);
-    if (support >= options.min_point_support) {
-      correspondences.push_back({point2D_idx, point3D_id});
-    }
+  const bool image_is_suspect = suspect_by_id.at(image_id);
+  auto is_trusted = [&suspect_by_id](colmap::image_t other_id) {
+    const auto it = suspect_by_id.find(other_id);
+    return it != suspect_by_id.end() && !it->second;
   };
+  auto support = [&](colmap::point3D_t point3D_id, bool observed_by_image) {
+    return num_trusted_observers.at(point3D_id) -
+           (observed_by_image && !image_is_suspect ? 1 : 0);
+  };
+  std::vector<Correspondence> raw;
   for (colmap::point2D_t idx = 0; idx < image.NumPoints2D(); ++idx) {
     const colmap::Point2D& point2D = image.Point2D(idx);
-    if (point2D.HasPoint3D()) add(idx, point2D.Point3DId(), true);
+    if (!point2D.HasPoint3D() ||
+        support(point2D.Point3DId(), true) < options.min_point_support) {
+      continue;
+    }
+    for (const colmap::TrackElement& element :
+         model.Point3D(point2D.Point3DId()).Track().Elements()) {
+      if (element.image_id != image_id && is_trusted(element.image_id)) {
+        raw.push_back({idx, point2D.Point3DId(), element.image_id});
+      }
+    }
   }
   for (const ImagePair* pair : pairs) {
     const bool is_first = pair->image_id1 == image_id;
-    const colmap::Image& other =
-        model.Image(is_first ? pair->image_id2 : pair->image_id1);
+    const colmap::image_t other_id =
+        is_first ? pair->image_id2 : pair->image_id1;
+    const colmap::Image& other = model.Image(other_id);
     for (const colmap::FeatureMatch& match : pair->matches) {
       const colmap::point2D_t own_idx =
           is_first ? match.point2D_idx1 : match.point2D_idx2;
@@ -190,85 +246,148 @@ std::vector<Correspondence> FindCorrespondences(
       const colmap::Point2D& other_point2D = other.Point2D(other_idx);
       if (!other_point2D.HasPoint3D()) continue;
       const colmap::point3D_t point3D_id = other_point2D.Point3DId();
-      const colmap::Point2D& own_point2D = image.Point2D(own_idx);
-      if (own_point2D.HasPoint3D() && own_point2D.Point3DId() == point3D_id) {
-        continue;  // Already an own observation.
+      if (support(point3D_id, Observes(model, point3D_id, image_id)) >=
+          options.min_point_support) {
+        raw.push_back({own_idx, point3D_id, other_id});
       }
-      add(own_idx, point3D_id, Observes(model, point3D_id, image_id));
     }
   }
-  std::sort(correspondences.begin(), correspondences.end());
-  correspondences.erase(
-      std::unique(correspondences.begin(), correspondences.end()),
-      correspondences.end());
-  return correspondences;
+  std::sort(raw.begin(), raw.end());
+  raw.erase(std::unique(raw.begin(), raw.end()), raw.end());
+
+  CorrespondenceSet set;
+  std::unordered_map<colmap::image_t, uint32_t> source_index;
+  const colmap::Camera& camera = model.Camera(image.CameraId());
+  for (size_t k = 0; k < raw.size(); ++k) {
+    const bool is_new = k == 0 ||
+                        raw[k].point2D_idx != raw[k - 1].point2D_idx ||
+                        raw[k].point3D_id != raw[k - 1].point3D_id;
+    if (is_new) {
+      set.source_begin.push_back(set.source_idxs.size());
+      set.point2D_idxs.push_back(raw[k].point2D_idx);
+      set.point3D_ids.push_back(raw[k].point3D_id);
+      set.normalized.push_back(
+          camera.ImageToWorld(image.Point2D(raw[k].point2D_idx).XY()));
+      set.xyz.push_back(model.Point3D(raw[k].point3D_id).XYZ());
+    }
+    const auto inserted = source_index.emplace(
+        raw[k].source, static_cast<uint32_t>(source_index.size()));
+    set.source_idxs.push_back(inserted.first->second);
+  }
+  set.source_begin.push_back(set.source_idxs.size());
+  set.num_sources = source_index.size();
+  return set;
 }
 
-// Inliers of the current pose, and the best pose RANSAC finds (refined on
-// its inliers, intrinsics fixed) with its inliers.
+// The current pose's score, and the best pose that RANSAC over P3P samples
+// finds by the same score, refined on its inliers (intrinsics fixed).
 void CheckImage(const PoseVerificationOptions& options,
                 const colmap::Reconstruction& model, double scene_size,
                 Check* check) {
   const colmap::image_t image_id = check->result.image_id;
   const colmap::Image& image = model.Image(image_id);
   const colmap::Camera& camera = model.Camera(image.CameraId());
+  const CorrespondenceSet& set = check->correspondences;
   PoseVerificationResult& result = check->result;
-  result.num_correspondences = check->correspondences.size();
-  std::vector<Eigen::Vector2d> points2D;
-  std::vector<Eigen::Vector3d> points3D;
-  points2D.reserve(check->correspondences.size());
-  points3D.reserve(check->correspondences.size());
-  for (const Correspondence& c : check->correspondences) {
-    points2D.push_back(image.Point2D(c.point2D_idx).XY());
-    points3D.push_back(model.Point3D(c.point3D_id).XYZ());
-  }
-  std::vector<char> current_inliers;
-  result.num_current_inliers =
-      CountInliers(camera, image.ProjectionMatrix(), points2D, points3D,
-                   options.max_reproj_error_px, &current_inliers);
-  if (points2D.size() <
-      static_cast<size_t>(colmap::P3PEstimator::kMinNumSamples)) {
+  result.num_correspondences = set.size();
+  result.num_source_images = set.num_sources;
+  const double max_error =
+      camera.ImageToWorldThreshold(options.max_reproj_error_px);
+  const size_t cap = static_cast<size_t>(options.max_inliers_per_image);
+  const PoseScore current =
+      ScorePose(set, image.ProjectionMatrix(), max_error, cap);
+  result.num_current_inliers = current.num_inliers;
+  result.current_score = current.capped_score;
+  if (set.size() < static_cast<size_t>(colmap::P3PEstimator::kMinNumSamples)) {
     return;
   }
-  std::vector<Eigen::Vector2d> normalized(points2D.size());
-  for (size_t i = 0; i < points2D.size(); ++i) {
-    normalized[i] = camera.ImageToWorld(points2D[i]);
-  }
-  // COLMAP's RANSAC samples from a thread-local PRNG: seeding it per image
-  // makes the result independent of the thread that checks the image.
-  colmap::SetPRNGSeed(static_cast<unsigned>(options.random_seed) ^
-                      static_cast<unsigned>(image_id * 2654435761u));
-  colmap::RANSACOptions ransac_options;
-  ransac_options.max_error =
-      camera.ImageToWorldThreshold(options.max_reproj_error_px);
-  ransac_options.confidence = options.ransac_confidence;
-  ransac_options.max_num_trials = options.ransac_max_num_trials;
-  ransac_options.min_inlier_ratio = 0.1;
-  colmap::LORANSAC<colmap::P3PEstimator, colmap::EPNPEstimator> ransac(
-      ransac_options);
-  const auto report = ransac.Estimate(normalized, points3D);
-  if (!report.success || !report.model.allFinite()) return;
 
-  check->qvec = colmap::RotationMatrixToQuaternion(report.model.leftCols<3>());
-  check->tvec = report.model.col(3);
+  // RANSAC with COLMAP's P3P solver but our score, so that one strongly
+  // matched image (a symmetric structure, a wrong pair) cannot outvote the
+  // many images that agree on the true pose. The number of trials follows
+  // the inlier ratio of the best pose, as in COLMAP's RANSAC.
+  std::mt19937 rng(static_cast<unsigned>(options.random_seed) ^
+                   static_cast<unsigned>(image_id * 2654435761u));
+  std::uniform_int_distribution<size_t> pick(0, set.size() - 1);
+  PoseScore best;
+  Eigen::Matrix3x4d best_pose = Eigen::Matrix3x4d::Zero();
+  bool found = false;
+  size_t num_trials_needed = static_cast<size_t>(options.ransac_max_num_trials);
+  std::vector<Eigen::Vector2d> sample2D(3);
+  std::vector<Eigen::Vector3d> sample3D(3);
+  for (size_t trial = 0; trial < num_trials_needed; ++trial) {
+    size_t idx[3];
+    idx[0] = pick(rng);
+    do {
+      idx[1] = pick(rng);
+    } while (idx[1] == idx[0]);
+    do {
+      idx[2] = pick(rng);
+    } while (idx[2] == idx[0] || idx[2] == idx[1]);
+    for (int i = 0; i < 3; ++i) {
+      sample2D[i] = set.normalized[idx[i]];
+      sample3D[i] = set.xyz[idx[i]];
+    }
+    for (const Eigen::Matrix3x4d& pose :
+         colmap::P3PEstimator::Estimate(sample2D, sample3D)) {
+      if (!pose.allFinite()) continue;
+      PoseScore score = ScorePose(set, pose, max_error, cap);
+      if (found && !(score > best)) continue;
+      found = true;
+      best = std::move(score);
+      best_pose = pose;
+      const double inlier_ratio =
+          static_cast<double>(best.num_inliers) / set.size();
+      const double all_inlier_probability = std::pow(inlier_ratio, 3);
+      size_t needed = static_cast<size_t>(options.ransac_max_num_trials);
+      if (all_inlier_probability >= 1) {
+        needed = 0;
+      } else if (all_inlier_probability > 0) {
+        needed = static_cast<size_t>(
+            std::ceil(std::log(1 - options.ransac_confidence) /
+                      std::log(1 - all_inlier_probability)));
+      }
+      num_trials_needed = std::clamp<size_t>(
+          needed, static_cast<size_t>(options.ransac_min_num_trials),
+          static_cast<size_t>(options.ransac_max_num_trials));
+    }
+  }
+  if (!found || best.num_inliers < 3) return;
+
+  // Local optimisation: refine on the inliers while the score improves.
   colmap::AbsolutePoseRefinementOptions refinement;
   refinement.refine_focal_length = false;
   refinement.refine_extra_params = false;
   refinement.print_summary = false;
-  colmap::Camera camera_copy = camera;
-  Eigen::Vector4d qvec = check->qvec;
-  Eigen::Vector3d tvec = check->tvec;
-  if (colmap::RefineAbsolutePose(refinement, report.inlier_mask, points2D,
-                                 points3D, &qvec, &tvec, &camera_copy) &&
-      qvec.allFinite() && tvec.allFinite()) {
-    check->qvec = qvec.normalized();
-    check->tvec = tvec;
+  std::vector<Eigen::Vector2d> points2D(set.size());
+  for (size_t k = 0; k < set.size(); ++k) {
+    points2D[k] = image.Point2D(set.point2D_idxs[k]).XY();
   }
-  const Eigen::Matrix3x4d estimate =
-      colmap::ComposeProjectionMatrix(check->qvec, check->tvec);
-  result.num_estimate_inliers =
-      CountInliers(camera, estimate, points2D, points3D,
-                   options.max_reproj_error_px, &check->estimate_inliers);
+  check->qvec = colmap::RotationMatrixToQuaternion(best_pose.leftCols<3>());
+  check->tvec = best_pose.col(3);
+  for (int iteration = 0; iteration < 3; ++iteration) {
+    colmap::Camera camera_copy = camera;
+    Eigen::Vector4d qvec = check->qvec;
+    Eigen::Vector3d tvec = check->tvec;
+    if (!colmap::RefineAbsolutePose(refinement, best.inliers, points2D, set.xyz,
+                                    &qvec, &tvec, &camera_copy) ||
+        !qvec.allFinite() || !tvec.allFinite()) {
+      break;
+    }
+    qvec.normalize();
+    PoseScore refined = ScorePose(
+        set, colmap::ComposeProjectionMatrix(qvec, tvec), max_error, cap);
+    if (best > refined) break;
+    const bool changed = refined.inliers != best.inliers;
+    best = std::move(refined);
+    check->qvec = qvec;
+    check->tvec = tvec;
+    if (!changed) break;
+  }
+  result.num_estimate_inliers = best.num_inliers;
+  result.estimate_score = best.capped_score;
+  check->estimate_inliers = std::move(best.inliers);
+
   const Eigen::Matrix3d current_rotation = image.RotationMatrix();
   const Eigen::Matrix3d estimate_rotation =
       colmap::QuaternionToRotationMatrix(check->qvec);
@@ -296,10 +415,10 @@ std::vector<Check> CheckImages(
     const auto it = pairs_of_image.find(image_id);
     Check& check = checks[k];
     check.result.image_id = image_id;
-    check.correspondences = FindCorrespondences(
-        options, model, image_id, suspect_by_id.at(image_id),
-        it == pairs_of_image.end() ? kNoPairs : it->second,
-        num_trusted_observers);
+    check.correspondences =
+        FindCorrespondences(options, model, image_id,
+                            it == pairs_of_image.end() ? kNoPairs : it->second,
+                            num_trusted_observers, suspect_by_id);
     CheckImage(options, model, scene_size, &check);
   });
   return checks;
@@ -326,16 +445,18 @@ void Replace(const PoseVerificationOptions& options, const Check& check,
       reconstruction->DeleteObservation(image_id, idx);
     }
   }
-  for (size_t i = 0; i < check.correspondences.size(); ++i) {
-    if (!check.estimate_inliers[i]) continue;
-    const Correspondence& c = check.correspondences[i];
-    if (image.Point2D(c.point2D_idx).HasPoint3D() ||
-        !reconstruction->ExistsPoint3D(c.point3D_id) ||
-        Observes(*reconstruction, c.point3D_id, image_id)) {
+  const CorrespondenceSet& set = check.correspondences;
+  for (size_t k = 0; k < set.size(); ++k) {
+    if (!check.estimate_inliers[k]) continue;
+    const colmap::point2D_t point2D_idx = set.point2D_idxs[k];
+    const colmap::point3D_t point3D_id = set.point3D_ids[k];
+    if (image.Point2D(point2D_idx).HasPoint3D() ||
+        !reconstruction->ExistsPoint3D(point3D_id) ||
+        Observes(*reconstruction, point3D_id, image_id)) {
       continue;
     }
-    reconstruction->AddObservation(
-        c.point3D_id, colmap::TrackElement(image_id, c.point2D_idx));
+    reconstruction->AddObservation(point3D_id,
+                                   colmap::TrackElement(image_id, point2D_idx));
   }
 }
 
@@ -346,8 +467,10 @@ bool PoseVerificationOptions::Check() const {
          min_point_support >= 1 && min_num_inliers >= 4 &&
          min_inlier_ratio >= 0 && min_inlier_ratio <= 1 &&
          min_inlier_fraction_of_estimate >= 0 &&
-         min_inlier_fraction_of_estimate <= 1 && ransac_confidence > 0 &&
-         ransac_confidence < 1 && ransac_max_num_trials > 0 &&
+         min_inlier_fraction_of_estimate <= 1 && max_inliers_per_image >= 1 &&
+         ransac_confidence > 0 && ransac_confidence < 1 &&
+         ransac_min_num_trials > 0 &&
+         ransac_max_num_trials >= ransac_min_num_trials &&
          max_rotation_difference_deg >= 0 && max_center_distance_ratio >= 0 &&
          max_num_rounds >= 1 && (num_threads == -1 || num_threads > 0);
 }
@@ -387,8 +510,8 @@ Status VerifyPoses(const PoseVerificationOptions& options,
       return false;
     }
     const bool explains_enough =
-        result.num_current_inliers >=
-        options.min_inlier_fraction_of_estimate * result.num_estimate_inliers;
+        result.current_score >=
+        options.min_inlier_fraction_of_estimate * result.estimate_score;
     const bool agrees =
         result.rotation_difference_deg <= options.max_rotation_difference_deg &&
         result.center_distance_ratio <= options.max_center_distance_ratio;
@@ -415,7 +538,17 @@ Status VerifyPoses(const PoseVerificationOptions& options,
     if (interrupt.IsStopped()) return Status::Cancelled();
     std::vector<char> fails(image_ids.size(), 0);
     for (size_t k = 0; k < checks.size(); ++k) {
-      fails[k] = !passes(checks[k].result);
+      const PoseVerificationResult& r = checks[k].result;
+      fails[k] = !passes(r);
+      VLOG(2) << "Pose verification round " << round << ": image "
+              << reconstruction->Image(r.image_id).Name() << ": "
+              << r.num_current_inliers << " of " << r.num_correspondences
+              << " inliers (score " << r.current_score << "), estimate "
+              << r.num_estimate_inliers << " (score " << r.estimate_score
+              << "), " << r.num_source_images << " source images"
+              << ", rotation difference " << r.rotation_difference_deg
+              << " deg, centre distance " << r.center_distance_ratio
+              << (fails[k] ? " FAILS" : "");
     }
     if (fails == is_suspect) break;
     is_suspect = fails;
@@ -431,7 +564,7 @@ Status VerifyPoses(const PoseVerificationOptions& options,
     const colmap::image_t image_id = result.image_id;
     const std::string& name = reconstruction->Image(image_id).Name();
     if (supported(result.num_estimate_inliers, result.num_correspondences) &&
-        result.num_estimate_inliers > result.num_current_inliers) {
+        result.estimate_score > result.current_score) {
       result.outcome = Outcome::kReplaced;
       result.reason = DescribeChange(result, options);
       LOG(WARNING) << "Pose verification: image " << name

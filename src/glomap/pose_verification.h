@@ -11,18 +11,17 @@
 //
 // The check is the one COLMAP's incremental mapper uses to register an image,
 // applied to an image that is already placed: 2D-3D correspondences, absolute
-// pose RANSAC (P3P, LO-RANSAC), inlier count and ratio. The correspondences of
-// image i link its keypoints to 3D points through its verified matches
-// (the database's pairs) and its own observations; a 3D
-// point only counts if at least `min_point_support` other registered images
-// observe it, i.e. its position does not rest on image i. The current pose
-// passes when it explains nearly as many correspondences as the best pose
-// RANSAC finds, or agrees with it. Images that fail become suspects and the
-// check repeats with points counted only through unsuspected images, so
-// that a wrongly placed group cannot vouch for itself or pull its
-// neighbours into its frame. A failing image is re-placed from the RANSAC
-// estimate when that estimate is well supported, and deregistered when it
-// is not.
+// pose RANSAC (COLMAP's P3P solver), inlier count and ratio. The
+// correspondences of image i link its keypoints to 3D points through its
+// verified matches (the database's pairs) and its own observations; a 3D point
+// only counts if at least `min_point_support` other registered images observe
+// it, i.e. its position does not rest on image i. The current pose passes when
+// it explains nearly as many correspondences as the best pose RANSAC finds, or
+// agrees with it. Images that fail become suspects and the check repeats with
+// points counted only through unsuspected images, so that a wrongly placed
+// group cannot vouch for itself or pull its neighbours into its frame. A
+// failing image is re-placed from the RANSAC estimate when that estimate is
+// well supported, and deregistered when it is not.
 #pragma once
 
 #include <string>
@@ -61,9 +60,16 @@ struct PoseVerificationOptions {
   int min_num_inliers = 15;
   double min_inlier_ratio = 0.25;
 
-  // The current pose passes when its inliers are at least this fraction of
-  // the RANSAC estimate's inliers: a pose from the global solve need not be
-  // the best pose for this image alone, but it must explain most of what the
+  // Poses are compared by a score that counts at most this many inliers
+  // through each other image (the image of the matched pair, or the images
+  // observing the point): evidence is what many images agree on, so one
+  // strongly matched image (a symmetric structure, a wrong pair that
+  // survived) cannot outvote the others.
+  int max_inliers_per_image = 10;
+
+  // The current pose passes when its score is at least this fraction of the
+  // RANSAC estimate's score: a pose from the global solve need not be the
+  // best pose for this image alone, but it must explain most of what the
   // best pose explains.
   double min_inlier_fraction_of_estimate = 0.6;
 
@@ -81,8 +87,10 @@ struct PoseVerificationOptions {
   // change, at most this many times.
   int max_num_rounds = 4;
 
-  // RANSAC (COLMAP's defaults for absolute pose).
+  // RANSAC over P3P samples, scored as above (COLMAP's confidence for
+  // absolute pose); the trials needed follow the best pose's inlier ratio.
   double ransac_confidence = 0.9999;
+  int ransac_min_num_trials = 100;
   int ransac_max_num_trials = 10000;
 
   // Seed of the RANSAC samples (same input and seed, same result).
@@ -104,6 +112,11 @@ struct PoseVerificationResult {
   size_t num_correspondences = 0;
   size_t num_current_inliers = 0;
   size_t num_estimate_inliers = 0;
+  // Other images the correspondences come through, and the scores (inliers
+  // counted at most max_inliers_per_image times per image).
+  size_t num_source_images = 0;
+  size_t current_score = 0;
+  size_t estimate_score = 0;
   // Difference between the current pose and the estimate (when there is
   // one): rotation angle in degrees, camera-centre distance as a fraction of
   // the scene size (median distance of the registered camera centres from

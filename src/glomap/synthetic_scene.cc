@@ -1,5 +1,6 @@
 #include "glomap/synthetic_scene.h"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -45,6 +46,9 @@ enum RandomStream : uint32_t {
   kKeypointStream,
   kPairStream,
   kRansacStream,
+  kShapeStream,
+  kPatchStream,
+  kWrongRotationStream,
 };
 
 std::mt19937 MakeRng(int seed, RandomStream stream, uint64_t index = 0) {
@@ -112,6 +116,64 @@ std::string OptionsError(const SyntheticSceneOptions& options) {
   }
   if (options.num_threads == 0 || options.num_threads < -1) {
     return "num_threads must be -1 or positive";
+  }
+  if (options.weak_group_size < 0) return "weak_group_size must be >= 0";
+  if (options.weak_group_num_patch_points < 0) {
+    return "weak_group_num_patch_points must be >= 0";
+  }
+  if (options.weak_group_max_matches_to_rest < 0) {
+    return "weak_group_max_matches_to_rest must be >= 0";
+  }
+  if (options.weak_group_num_anchors < 0 ||
+      options.weak_group_num_anchors > 5) {
+    return "weak_group_num_anchors must be in [0, 5]";
+  }
+  if (options.num_wrong_rotation_pairs < 0) {
+    return "num_wrong_rotation_pairs must be >= 0";
+  }
+  if (!(options.wrong_rotation_angle_deg > 0 &&
+        options.wrong_rotation_angle_deg < 180)) {
+    return "wrong_rotation_angle_deg must be in (0, 180)";
+  }
+  if (options.wrong_rotation_pairs != "group_to_rest" &&
+      options.wrong_rotation_pairs != "group_to_anchors" &&
+      options.wrong_rotation_pairs != "any") {
+    return "wrong_rotation_pairs must be group_to_rest, group_to_anchors or "
+           "any";
+  }
+  if (options.num_wrong_rotation_pairs > 0 &&
+      options.wrong_rotation_pairs != "any" && options.weak_group_size == 0) {
+    return "wrong_rotation_pairs " + options.wrong_rotation_pairs +
+           " needs weak_group_size > 0";
+  }
+  if (options.num_wrong_rotation_pairs > 0 &&
+      options.wrong_rotation_pairs == "group_to_anchors" &&
+      options.weak_group_num_anchors == 0) {
+    return "wrong_rotation_pairs group_to_anchors needs "
+           "weak_group_num_anchors > 0";
+  }
+  if (options.num_pure_rotation_images < 0) {
+    return "num_pure_rotation_images must be >= 0";
+  }
+  if (options.num_long_baseline_images < 0) {
+    return "num_long_baseline_images must be >= 0";
+  }
+  if (options.long_baseline_num_skipped_neighbors < 1) {
+    return "long_baseline_num_skipped_neighbors must be >= 1";
+  }
+  if (options.weak_bridge_max_matches < 0) {
+    return "weak_bridge_max_matches must be >= 0";
+  }
+  // Each pure-rotation image also claims the image whose centre it takes.
+  const int num_special_images =
+      (options.weak_group_size > 0
+           ? options.weak_group_size + options.weak_group_num_anchors
+           : 0) +
+      2 * options.num_pure_rotation_images + options.num_long_baseline_images;
+  if (num_special_images > options.num_images / 2) {
+    return "weak_group_size + weak_group_num_anchors + 2 * "
+           "num_pure_rotation_images + num_long_baseline_images must be at "
+           "most num_images / 2";
   }
   return "";
 }
@@ -627,13 +689,9 @@ struct SyntheticPair {
   colmap::TwoViewGeometry geometry;
 };
 
-// True matches (all points both images see) plus wrong ones between
-// keypoints that see different points, one-to-one like a cross-checked
-// matcher, in random order.
-colmap::FeatureMatches MakeRawMatches(const SyntheticImage& image1,
-                                      const SyntheticImage& image2,
-                                      double wrong_match_ratio,
-                                      std::mt19937& rng) {
+// True matches: all points both images see.
+colmap::FeatureMatches TrueMatches(const SyntheticImage& image1,
+                                   const SyntheticImage& image2) {
   colmap::FeatureMatches matches;
   auto it1 = image1.point_to_keypoint.begin();
   auto it2 = image2.point_to_keypoint.begin();
@@ -649,7 +707,24 @@ colmap::FeatureMatches MakeRawMatches(const SyntheticImage& image1,
       ++it2;
     }
   }
+  return matches;
+}
+
+// Raw matches from a pair's true (or symmetric-structure) matches: at most
+// `max_true_matches` of them, picked at random, plus wrong ones between
+// keypoints that see different points, one-to-one like a cross-checked
+// matcher, in random order.
+colmap::FeatureMatches MakeRawMatches(colmap::FeatureMatches matches,
+                                      const SyntheticImage& image1,
+                                      const SyntheticImage& image2,
+                                      size_t max_true_matches,
+                                      double wrong_match_ratio,
+                                      std::mt19937& rng) {
   if (matches.empty()) return matches;
+  if (matches.size() > max_true_matches) {
+    std::shuffle(matches.begin(), matches.end(), rng);
+    matches.resize(max_true_matches);
+  }
 
   const size_t num_wrong = static_cast<size_t>(
       std::round(matches.size() * wrong_match_ratio / (1 - wrong_match_ratio)));
@@ -678,6 +753,351 @@ colmap::FeatureMatches MakeRawMatches(const SyntheticImage& image1,
   return matches;
 }
 
+// Image indices sorted by the distance of their camera centre to `xyz`
+// (ties by index).
+std::vector<uint32_t> ImagesByDistance(const Layout& layout,
+                                       const Eigen::Vector3d& xyz) {
+  std::vector<std::pair<double, uint32_t>> distances;
+  distances.reserve(layout.poses.size());
+  for (size_t i = 0; i < layout.poses.size(); ++i) {
+    distances.emplace_back((layout.poses[i].center - xyz).squaredNorm(),
+                           static_cast<uint32_t>(i));
+  }
+  std::sort(distances.begin(), distances.end());
+  std::vector<uint32_t> order;
+  order.reserve(distances.size());
+  for (const auto& [distance, idx] : distances) order.push_back(idx);
+  return order;
+}
+
+// The images that play a part in a failure shape, by index.
+struct ShapeRoles {
+  std::vector<uint32_t> group;
+  std::vector<uint32_t> anchors;
+  std::vector<char> in_group;
+  std::vector<char> is_anchor;
+  // (moved image, image whose centre it takes).
+  std::vector<std::pair<uint32_t, uint32_t>> pure_rotation;
+  std::vector<uint32_t> long_baseline;
+};
+
+// Picks the weak group, its anchors, the pure-rotation and long-baseline
+// images, and moves the pure-rotation images (before visibility, so that
+// they see what their new centre sees). No image has two roles.
+ShapeRoles PickShapeRoles(const SyntheticSceneOptions& options,
+                          Layout* layout) {
+  const size_t num_images = layout->poses.size();
+  ShapeRoles roles;
+  roles.in_group.assign(num_images, 0);
+  roles.is_anchor.assign(num_images, 0);
+  std::vector<char> taken(num_images, 0);
+  std::mt19937 rng = MakeRng(options.random_seed, kShapeStream);
+  std::uniform_int_distribution<uint32_t> pick_image(
+      0, static_cast<uint32_t>(num_images - 1));
+
+  if (options.weak_group_size > 0) {
+    const uint32_t first = pick_image(rng);
+    roles.group.push_back(first);
+    for (const uint32_t i :
+         ImagesByDistance(*layout, layout->poses[first].center)) {
+      if (roles.group.size() == static_cast<size_t>(options.weak_group_size)) {
+        break;
+      }
+      if (i != first) roles.group.push_back(i);
+    }
+    Eigen::Vector3d group_center = Eigen::Vector3d::Zero();
+    for (const uint32_t i : roles.group) {
+      roles.in_group[i] = taken[i] = 1;
+      group_center += layout->poses[i].center;
+    }
+    group_center /= static_cast<double>(roles.group.size());
+    for (const uint32_t i : ImagesByDistance(*layout, group_center)) {
+      if (roles.anchors.size() ==
+          static_cast<size_t>(options.weak_group_num_anchors)) {
+        break;
+      }
+      if (taken[i]) continue;
+      roles.anchors.push_back(i);
+      roles.is_anchor[i] = taken[i] = 1;
+    }
+  }
+
+  // OptionsError() allows at most num_images / 2 taken images, so these
+  // draws end.
+  const auto pick_free_image = [&]() {
+    uint32_t i = pick_image(rng);
+    while (taken[i]) i = pick_image(rng);
+    taken[i] = 1;
+    return i;
+  };
+  for (int k = 0; k < options.num_pure_rotation_images; ++k) {
+    const uint32_t moved = pick_free_image();
+    uint32_t partner = moved;
+    for (const uint32_t i :
+         ImagesByDistance(*layout, layout->poses[moved].center)) {
+      if (!taken[i]) {
+        partner = i;
+        break;
+      }
+    }
+    taken[partner] = 1;
+    Pose& pose = layout->poses[moved];
+    pose.center = layout->poses[partner].center;
+    pose.cam_from_world_t = -pose.cam_from_world_R * pose.center;
+    roles.pure_rotation.emplace_back(moved, partner);
+  }
+  for (int k = 0; k < options.num_long_baseline_images; ++k) {
+    roles.long_baseline.push_back(pick_free_image());
+  }
+  return roles;
+}
+
+// Adds the weak group's private patch: a flat, richly textured square in
+// front of the group, facing it, that only the group and its anchors see
+// (a poster or a detail photographed up close). Its points are appended to
+// `points`, their observations to those of the group and anchors (whose
+// lists stay sorted by point index).
+void AddPrivatePatch(const SyntheticSceneOptions& options, const Layout& layout,
+                     const std::vector<colmap::Camera>& cameras,
+                     const std::vector<int>& camera_of_image,
+                     const ShapeRoles& roles, std::vector<ScenePoint>* points,
+                     std::vector<std::vector<Observation>>* observations) {
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  for (const uint32_t i : roles.group) {
+    center += layout.poses[i].center;
+    axis += layout.poses[i].cam_from_world_R.row(2).transpose();
+  }
+  center /= static_cast<double>(roles.group.size());
+  axis.normalize();
+  // In front of the first image at 3/4 of the median depth of what it sees,
+  // so that the patch fills about half of its view.
+  const Pose& first_pose = layout.poses[roles.group.front()];
+  std::vector<double> depths;
+  for (const Observation& observation : (*observations)[roles.group.front()]) {
+    const Eigen::Vector3d xyz = points->at(observation.point_idx).xyz;
+    depths.push_back(
+        (first_pose.cam_from_world_R * xyz + first_pose.cam_from_world_t).z());
+  }
+  double distance = 1;
+  if (!depths.empty()) {
+    std::nth_element(depths.begin(), depths.begin() + depths.size() / 2,
+                     depths.end());
+    distance = 0.75 * depths[depths.size() / 2];
+  }
+  const colmap::Camera& first_camera =
+      cameras[camera_of_image[roles.group.front()]];
+  const double half_size =
+      0.25 * distance * first_camera.Width() / first_camera.MeanFocalLength();
+  const Eigen::Vector3d patch_center = center + distance * axis;
+  const Eigen::Vector3d u = axis.unitOrthogonal();
+  const Eigen::Vector3d v = axis.cross(u);
+
+  std::mt19937 rng = MakeRng(options.random_seed, kPatchStream);
+  const size_t first_patch_point = points->size();
+  for (int k = 0; k < options.weak_group_num_patch_points; ++k) {
+    ScenePoint point;
+    point.xyz = patch_center + Uniform(rng, -half_size, half_size) * u +
+                Uniform(rng, -half_size, half_size) * v +
+                Uniform(rng, -0.01, 0.01) * distance * axis;
+    point.normal = -axis;
+    points->push_back(point);
+  }
+  std::vector<uint32_t> viewers = roles.group;
+  viewers.insert(viewers.end(), roles.anchors.begin(), roles.anchors.end());
+  const double min_cos_view = std::cos(layout.max_view_angle_deg * kDegToRad);
+  Eigen::Vector2d pixel;
+  for (const uint32_t i : viewers) {
+    for (size_t p = first_patch_point; p < points->size(); ++p) {
+      if (ProjectVisible(layout, layout.poses[i], cameras[camera_of_image[i]],
+                         (*points)[p], min_cos_view, &pixel)) {
+        (*observations)[i].push_back({static_cast<uint32_t>(p), pixel});
+      }
+    }
+  }
+}
+
+size_t NumCommonPoints(const SyntheticImage& image1,
+                       const SyntheticImage& image2) {
+  return TrueMatches(image1, image2).size();
+}
+
+// Removes the pairs of each long-baseline image with its
+// `num_skipped_neighbors` nearest images.
+void RemoveShortBaselinePairs(
+    const Layout& layout, const std::vector<uint32_t>& long_baseline_images,
+    int num_skipped_neighbors,
+    std::vector<std::pair<uint32_t, uint32_t>>* pairs) {
+  std::vector<std::pair<uint32_t, uint32_t>> removed;
+  for (const uint32_t i : long_baseline_images) {
+    int num_skipped = 0;
+    for (const uint32_t j : ImagesByDistance(layout, layout.poses[i].center)) {
+      if (num_skipped == num_skipped_neighbors) break;
+      if (j == i) continue;
+      removed.emplace_back(std::min(i, j), std::max(i, j));
+      ++num_skipped;
+    }
+  }
+  std::sort(removed.begin(), removed.end());
+  pairs->erase(std::remove_if(pairs->begin(), pairs->end(),
+                              [&](const std::pair<uint32_t, uint32_t>& pair) {
+                                return std::binary_search(removed.begin(),
+                                                          removed.end(), pair);
+                              }),
+               pairs->end());
+}
+
+// Splits the images into two halves at the median of their camera centres
+// along the direction in which the centres spread most, and removes every
+// pair across the split except the one with the most common points. Returns
+// that pair's index in the filtered `pairs` (or -1 if no pair crosses) and
+// sets in_first_half per image.
+int KeepOneBridge(const Layout& layout,
+                  const std::vector<SyntheticImage>& images,
+                  std::vector<std::pair<uint32_t, uint32_t>>* pairs,
+                  std::vector<char>* in_first_half) {
+  const size_t num_images = layout.poses.size();
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Pose& pose : layout.poses) mean += pose.center;
+  mean /= static_cast<double>(num_images);
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (const Pose& pose : layout.poses) {
+    covariance += (pose.center - mean) * (pose.center - mean).transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
+  const Eigen::Vector3d direction = solver.eigenvectors().col(2);
+  std::vector<std::pair<double, uint32_t>> along;
+  for (size_t i = 0; i < num_images; ++i) {
+    along.emplace_back(direction.dot(layout.poses[i].center - mean),
+                       static_cast<uint32_t>(i));
+  }
+  std::sort(along.begin(), along.end());
+  in_first_half->assign(num_images, 0);
+  for (size_t k = 0; k < num_images / 2; ++k) {
+    (*in_first_half)[along[k].second] = 1;
+  }
+
+  std::pair<uint32_t, uint32_t> bridge(0, 0);
+  size_t bridge_num_points = 0;
+  for (const auto& [i, j] : *pairs) {
+    if ((*in_first_half)[i] == (*in_first_half)[j]) continue;
+    const size_t num_points = NumCommonPoints(images[i], images[j]);
+    if (num_points > bridge_num_points) {
+      bridge_num_points = num_points;
+      bridge = {i, j};
+    }
+  }
+  pairs->erase(std::remove_if(pairs->begin(), pairs->end(),
+                              [&](const std::pair<uint32_t, uint32_t>& pair) {
+                                return (*in_first_half)[pair.first] !=
+                                           (*in_first_half)[pair.second] &&
+                                       pair != bridge;
+                              }),
+               pairs->end());
+  if (bridge_num_points == 0) return -1;
+  return static_cast<int>(
+      std::lower_bound(pairs->begin(), pairs->end(), bridge) - pairs->begin());
+}
+
+// A wrong-rotation pair: image B seen as if turned about a vertical axis.
+struct WrongRotationPair {
+  size_t pair_idx = 0;
+  // Whether B is the pair's first image.
+  bool turned_first = false;
+  // B's pose as the symmetric structure makes it appear.
+  Pose turned_pose;
+  // Matches (first image's keypoint, second image's keypoint).
+  colmap::FeatureMatches matches;
+};
+
+// Turns `pose` by `angle_rad` about the vertical line through the point at
+// `depth` on its optical axis: what a camera sees of an object that is
+// symmetric under that rotation.
+Pose TurnedPose(const Pose& pose, double depth, double angle_rad) {
+  const Eigen::Vector3d pivot =
+      pose.center + depth * pose.cam_from_world_R.row(2).transpose();
+  const Eigen::Matrix3d turn =
+      Eigen::AngleAxisd(angle_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  Pose turned;
+  turned.center = pivot + turn * (pose.center - pivot);
+  turned.cam_from_world_R = pose.cam_from_world_R * turn.transpose();
+  turned.cam_from_world_t = -turned.cam_from_world_R * turned.center;
+  return turned;
+}
+
+// Makes the symmetric matches of a wrong-rotation pair: every scene point
+// (index below `num_scene_points`: not the private patch, which has no
+// symmetric copy) that image A sees and the turned image B would see becomes
+// a new keypoint of B, matched to A's keypoint of the point. These come on
+// top of B's max_keypoints_per_image.
+void MakeSymmetricMatches(const SyntheticSceneOptions& options,
+                          const Layout& layout,
+                          const std::vector<colmap::Camera>& cameras,
+                          const std::vector<int>& camera_of_image,
+                          const std::vector<ScenePoint>& points,
+                          size_t num_scene_points, uint32_t image_a,
+                          uint32_t image_b, std::vector<SyntheticImage>* images,
+                          WrongRotationPair* pair) {
+  std::mt19937 rng =
+      MakeRng(options.random_seed, kWrongRotationStream, pair->pair_idx + 1);
+  const Pose& pose_b = layout.poses[image_b];
+  std::vector<double> depths;
+  for (const auto& [point_idx, keypoint_idx] :
+       (*images)[image_b].point_to_keypoint) {
+    depths.push_back((pose_b.cam_from_world_R * points[point_idx].xyz +
+                      pose_b.cam_from_world_t)
+                         .z());
+  }
+  double depth = 1;
+  if (!depths.empty()) {
+    std::nth_element(depths.begin(), depths.begin() + depths.size() / 2,
+                     depths.end());
+    depth = depths[depths.size() / 2];
+  }
+  // Turned towards A: the symmetric structure is confused with what B would
+  // see from nearer to A, which makes the strongest wrong matches.
+  const double angle_rad = options.wrong_rotation_angle_deg * kDegToRad;
+  const Eigen::Vector3d& center_a = layout.poses[image_a].center;
+  const Pose turned_left = TurnedPose(pose_b, depth, angle_rad);
+  const Pose turned_right = TurnedPose(pose_b, depth, -angle_rad);
+  pair->turned_pose = (turned_left.center - center_a).squaredNorm() <=
+                              (turned_right.center - center_a).squaredNorm()
+                          ? turned_left
+                          : turned_right;
+
+  const colmap::Camera& camera_b = cameras[camera_of_image[image_b]];
+  const double min_cos_view = std::cos(layout.max_view_angle_deg * kDegToRad);
+  std::vector<std::pair<uint32_t, Eigen::Vector2d>> seen;
+  Eigen::Vector2d pixel;
+  for (const auto& [point_idx, keypoint_idx] :
+       (*images)[image_a].point_to_keypoint) {
+    if (point_idx < num_scene_points &&
+        ProjectVisible(layout, pair->turned_pose, camera_b, points[point_idx],
+                       min_cos_view, &pixel)) {
+      seen.emplace_back(keypoint_idx, pixel);
+    }
+  }
+  SyntheticImage& turned_image = (*images)[image_b];
+  std::normal_distribution<double> noise(0, 1);
+  const double width = static_cast<double>(camera_b.Width());
+  const double height = static_cast<double>(camera_b.Height());
+  for (const auto& [keypoint_a, xy] : seen) {
+    const Eigen::Vector2d noisy =
+        xy + options.pixel_noise_px * Eigen::Vector2d(noise(rng), noise(rng));
+    // Stored as float, like every keypoint.
+    turned_image.keypoints.emplace_back(
+        std::clamp<double>(static_cast<float>(noisy.x()), 0.5, width - 0.5),
+        std::clamp<double>(static_cast<float>(noisy.y()), 0.5, height - 0.5));
+    const uint32_t keypoint_b =
+        static_cast<uint32_t>(turned_image.keypoints.size() - 1);
+    if (pair->turned_first) {
+      pair->matches.emplace_back(keypoint_b, keypoint_a);
+    } else {
+      pair->matches.emplace_back(keypoint_a, keypoint_b);
+    }
+  }
+}
+
 Eigen::Matrix3d CrossProductMatrix(const Eigen::Vector3d& v) {
   Eigen::Matrix3d m;
   m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
@@ -693,15 +1113,41 @@ colmap::TwoViewGeometry VerifyWithGroundTruth(
     const std::vector<Eigen::Vector2d>& normalized2, bool calibrated) {
   const Eigen::Matrix3d R =
       pose2.cam_from_world_R * pose1.cam_from_world_R.transpose();
+  const double focal =
+      0.5 * (true_camera1.MeanFocalLength() + true_camera2.MeanFocalLength());
+  colmap::TwoViewGeometry geometry;
+  if ((pose2.center - pose1.center).norm() <=
+      1e-9 * (1 + pose1.center.norm())) {
+    // No baseline: the homography of the rotation explains every match, E
+    // and F are undefined; COLMAP's verifier calls such pairs
+    // PLANAR_OR_PANORAMIC.
+    const double max_transfer = kMaxEpipolarErrorPx / focal;
+    for (const colmap::FeatureMatch& match : raw_matches) {
+      const Eigen::Vector3d x1 = normalized1[match.point2D_idx1].homogeneous();
+      const Eigen::Vector3d Rx1 = R * x1;
+      if (Rx1.z() > 0 &&
+          (Rx1.hnormalized() - normalized2[match.point2D_idx2]).norm() <=
+              max_transfer) {
+        geometry.inlier_matches.push_back(match);
+      }
+    }
+    if (geometry.inlier_matches.size() < static_cast<size_t>(kMinNumInliers)) {
+      geometry.inlier_matches.clear();
+      geometry.config = colmap::TwoViewGeometry::DEGENERATE;
+      return geometry;
+    }
+    geometry.config = colmap::TwoViewGeometry::PLANAR_OR_PANORAMIC;
+    geometry.H = true_camera2.CalibrationMatrix() * R *
+                 true_camera1.CalibrationMatrix().inverse();
+    geometry.H /= geometry.H.norm();
+    return geometry;
+  }
   const Eigen::Vector3d t =
       (pose2.cam_from_world_t - R * pose1.cam_from_world_t).normalized();
   const Eigen::Matrix3d E = CrossProductMatrix(t) * R;
   // Sampson distance in normalized coordinates, scaled to pixels.
-  const double focal =
-      0.5 * (true_camera1.MeanFocalLength() + true_camera2.MeanFocalLength());
   const double max_sampson = std::pow(kMaxEpipolarErrorPx / focal, 2);
 
-  colmap::TwoViewGeometry geometry;
   for (const colmap::FeatureMatch& match : raw_matches) {
     const Eigen::Vector3d x1 = normalized1[match.point2D_idx1].homogeneous();
     const Eigen::Vector3d x2 = normalized2[match.point2D_idx2].homogeneous();
@@ -752,7 +1198,8 @@ bool SyntheticSceneOptions::Check() const {
 
 Status WriteSyntheticScene(const SyntheticSceneOptions& options,
                            const std::string& database_path,
-                           colmap::Reconstruction* ground_truth) {
+                           colmap::Reconstruction* ground_truth,
+                           SyntheticSceneShapes* shapes) {
   const std::string options_error = OptionsError(options);
   if (!options_error.empty()) {
     return Status::Error("Invalid synthetic scene options: " + options_error +
@@ -793,17 +1240,22 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
   } else {
     layout = MakeGridLayout(options.num_images, pose_rng);
   }
+  const ShapeRoles roles = PickShapeRoles(options, &layout);
 
   // Points and what each image sees.
   const size_t num_points =
       options.num_points3D > 0
           ? static_cast<size_t>(options.num_points3D)
           : AutomaticNumPoints(options, layout, true_cameras, camera_of_image);
-  std::vector<ScenePoint> points(num_points);
+  std::vector<ScenePoint> points(num_points);  // the patch may add more
   std::mt19937 point_rng = MakeRng(options.random_seed, kPointStream);
   for (ScenePoint& point : points) point = layout.sample_point(point_rng);
   std::vector<std::vector<Observation>> observations =
       ComputeVisibility(layout, true_cameras, camera_of_image, points, &pool);
+  if (!roles.group.empty() && options.weak_group_num_patch_points > 0) {
+    AddPrivatePatch(options, layout, true_cameras, camera_of_image, roles,
+                    &points, &observations);
+  }
 
   // Keypoints, each image with its own random stream.
   std::vector<SyntheticImage> images(num_images);
@@ -814,19 +1266,105 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
       const colmap::Camera& camera = true_cameras[camera_of_image[i]];
       images[i] =
           MakeKeypoints(options, camera, std::move(observations[i]), rng);
-      if (options.verification == "ground_truth") {
+    }
+  });
+  observations.clear();
+
+  // Which pairs are matched.
+  std::vector<std::pair<uint32_t, uint32_t>> pair_idxs = SelectPairs(
+      layout, static_cast<size_t>(options.max_pairs_per_image), &pool);
+  if (!roles.long_baseline.empty()) {
+    RemoveShortBaselinePairs(layout, roles.long_baseline,
+                             options.long_baseline_num_skipped_neighbors,
+                             &pair_idxs);
+  }
+  std::vector<char> in_first_half;
+  const int bridge_idx =
+      options.weak_bridge
+          ? KeepOneBridge(layout, images, &pair_idxs, &in_first_half)
+          : -1;
+
+  // How many true matches each pair keeps: pairs from the weak group to the
+  // rest and the bridge are thinned.
+  std::vector<size_t> max_true_matches(pair_idxs.size(),
+                                       std::numeric_limits<size_t>::max());
+  if (!roles.group.empty()) {
+    for (size_t p = 0; p < pair_idxs.size(); ++p) {
+      const auto [i, j] = pair_idxs[p];
+      if (roles.in_group[i] != roles.in_group[j] && !roles.is_anchor[i] &&
+          !roles.is_anchor[j]) {
+        max_true_matches[p] =
+            static_cast<size_t>(options.weak_group_max_matches_to_rest);
+      }
+    }
+  }
+  if (bridge_idx >= 0) {
+    max_true_matches[bridge_idx] =
+        std::min(max_true_matches[bridge_idx],
+                 static_cast<size_t>(options.weak_bridge_max_matches));
+  }
+
+  // Wrong-rotation pairs, picked at random among the candidates (pairs whose
+  // views overlap), and their symmetric keypoints (in pair order, as several
+  // may add to one image).
+  std::vector<WrongRotationPair> wrong_pairs;
+  if (options.num_wrong_rotation_pairs > 0) {
+    for (size_t p = 0; p < pair_idxs.size(); ++p) {
+      const auto [i, j] = pair_idxs[p];
+      if (NumCommonPoints(images[i], images[j]) <
+          static_cast<size_t>(2 * kMinNumInliers)) {
+        continue;
+      }
+      WrongRotationPair wrong;
+      wrong.pair_idx = p;
+      if (options.wrong_rotation_pairs == "any") {
+        wrong_pairs.push_back(wrong);
+        continue;
+      }
+      if (roles.in_group[i] == roles.in_group[j]) continue;
+      wrong.turned_first = roles.in_group[j];
+      const uint32_t other = wrong.turned_first ? i : j;
+      const bool to_anchors =
+          options.wrong_rotation_pairs == "group_to_anchors";
+      if (static_cast<bool>(roles.is_anchor[other]) == to_anchors) {
+        wrong_pairs.push_back(wrong);
+      }
+    }
+    std::mt19937 rng = MakeRng(options.random_seed, kWrongRotationStream, 0);
+    std::shuffle(wrong_pairs.begin(), wrong_pairs.end(), rng);
+    wrong_pairs.resize(
+        std::min(wrong_pairs.size(),
+                 static_cast<size_t>(options.num_wrong_rotation_pairs)));
+    std::sort(wrong_pairs.begin(), wrong_pairs.end(),
+              [](const WrongRotationPair& a, const WrongRotationPair& b) {
+                return a.pair_idx < b.pair_idx;
+              });
+    for (WrongRotationPair& wrong : wrong_pairs) {
+      const auto [i, j] = pair_idxs[wrong.pair_idx];
+      MakeSymmetricMatches(options, layout, true_cameras, camera_of_image,
+                           points, num_points, wrong.turned_first ? j : i,
+                           wrong.turned_first ? i : j, &images, &wrong);
+    }
+  }
+  std::vector<const WrongRotationPair*> wrong_pair_of(pair_idxs.size(),
+                                                      nullptr);
+  for (const WrongRotationPair& wrong : wrong_pairs) {
+    wrong_pair_of[wrong.pair_idx] = &wrong;
+  }
+
+  if (options.verification == "ground_truth") {
+    ParallelFor(&pool, num_images, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) {
+        const colmap::Camera& camera = true_cameras[camera_of_image[i]];
         normalized[i].reserve(images[i].keypoints.size());
         for (const Eigen::Vector2d& keypoint : images[i].keypoints) {
           normalized[i].push_back(camera.ImageToWorld(keypoint));
         }
       }
-    }
-  });
-  observations.clear();
+    });
+  }
 
   // Matching and verification, each pair with its own random stream.
-  const std::vector<std::pair<uint32_t, uint32_t>> pair_idxs = SelectPairs(
-      layout, static_cast<size_t>(options.max_pairs_per_image), &pool);
   const colmap::TwoViewGeometry::Options verification_options =
       MatcherVerificationOptions();
   std::vector<SyntheticPair> pairs(pair_idxs.size());
@@ -835,8 +1373,13 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
       const auto [i, j] = pair_idxs[p];
       std::mt19937 rng = MakeRng(options.random_seed, kPairStream, p);
       SyntheticPair& pair = pairs[p];
-      pair.raw_matches =
-          MakeRawMatches(images[i], images[j], options.wrong_match_ratio, rng);
+      const WrongRotationPair* wrong = wrong_pair_of[p];
+      pair.raw_matches = MakeRawMatches(
+          wrong != nullptr ? wrong->matches : TrueMatches(images[i], images[j]),
+          images[i], images[j],
+          wrong != nullptr ? std::numeric_limits<size_t>::max()
+                           : max_true_matches[p],
+          options.wrong_match_ratio, rng);
       if (pair.raw_matches.size() < static_cast<size_t>(kMinNumInliers)) {
         continue;  // COLMAP's verifier skips these (config UNDEFINED).
       }
@@ -851,10 +1394,17 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
                                images[j].keypoints, pair.raw_matches,
                                verification_options);
       } else {
+        // A wrong-rotation pair is verified against the turned pose, as the
+        // matches are consistent with it.
+        const Pose& pose1 = wrong != nullptr && wrong->turned_first
+                                ? wrong->turned_pose
+                                : layout.poses[i];
+        const Pose& pose2 = wrong != nullptr && !wrong->turned_first
+                                ? wrong->turned_pose
+                                : layout.poses[j];
         pair.geometry = VerifyWithGroundTruth(
-            pair.raw_matches, layout.poses[i], layout.poses[j],
-            true_cameras[camera_of_image[i]], true_cameras[camera_of_image[j]],
-            normalized[i], normalized[j],
+            pair.raw_matches, pose1, pose2, true_cameras[camera_of_image[i]],
+            true_cameras[camera_of_image[j]], normalized[i], normalized[j],
             camera1.HasPriorFocalLength() && camera2.HasPriorFocalLength());
       }
     }
@@ -906,16 +1456,53 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
     ground_truth->AddImage(std::move(image));
     ground_truth->RegisterImage(static_cast<colmap::image_t>(i + 1));
   }
-  std::vector<colmap::Track> tracks(num_points);
+  std::vector<colmap::Track> tracks(points.size());
   for (size_t i = 0; i < num_images; ++i) {
     for (const auto& [point_idx, keypoint_idx] : images[i].point_to_keypoint) {
       tracks[point_idx].AddElement(static_cast<colmap::image_t>(i + 1),
                                    keypoint_idx);
     }
   }
-  for (size_t p = 0; p < num_points; ++p) {
+  for (size_t p = 0; p < points.size(); ++p) {
     if (tracks[p].Length() < 2) continue;
     ground_truth->AddPoint3D(points[p].xyz, std::move(tracks[p]));
+  }
+
+  if (shapes != nullptr) {
+    *shapes = SyntheticSceneShapes();
+    const auto id = [](uint32_t idx) {
+      return static_cast<colmap::image_t>(idx + 1);
+    };
+    for (const uint32_t i : roles.group) {
+      shapes->weak_group_image_ids.push_back(id(i));
+    }
+    for (const uint32_t i : roles.anchors) {
+      shapes->weak_group_anchor_image_ids.push_back(id(i));
+    }
+    for (const WrongRotationPair& wrong : wrong_pairs) {
+      const auto [i, j] = pair_idxs[wrong.pair_idx];
+      SyntheticSceneShapes::WrongRotationPair pair;
+      pair.image_id1 = id(i);
+      pair.image_id2 = id(j);
+      pair.turned_image_id = id(wrong.turned_first ? i : j);
+      pair.num_matches = wrong.matches.size();
+      shapes->wrong_rotation_pairs.push_back(pair);
+    }
+    for (const auto& [moved, partner] : roles.pure_rotation) {
+      shapes->pure_rotation_image_ids.emplace_back(id(moved), id(partner));
+    }
+    for (const uint32_t i : roles.long_baseline) {
+      shapes->long_baseline_image_ids.push_back(id(i));
+    }
+    if (bridge_idx >= 0) {
+      const auto [i, j] = pair_idxs[bridge_idx];
+      shapes->weak_bridge_pair = {id(i), id(j)};
+      for (size_t k = 0; k < num_images; ++k) {
+        if (in_first_half[k] == in_first_half[i]) {
+          shapes->weak_bridge_half_image_ids.push_back(id(k));
+        }
+      }
+    }
   }
   return Status::Ok();
 }

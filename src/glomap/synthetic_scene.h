@@ -5,6 +5,8 @@
 #pragma once
 
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "base/reconstruction.h"
 #include "glomap/status.h"
@@ -76,6 +78,68 @@ struct SyntheticSceneOptions {
   //                  benchmarks.
   std::string verification = "colmap";
 
+  // Failure shapes of global mappers (issue 10): scenes in which a camera
+  // that global positioning cannot constrain may end far from where it
+  // belongs while the model still reprojects well. All are off by default.
+  // A weak group of 2 whose pairs to the rest keep 20 matches (below the
+  // mapper's 30 inliers) and whose 2 pairs to its anchor have a wrong
+  // rotation ("group_to_anchors") reproduces the failure seen on real data.
+
+  // Weak group: this many neighbouring images (one picked by the seed and its
+  // nearest images by camera centre; 0 = none) that also see a private
+  // textured patch, as close-ups of a detail do: they are strongly matched
+  // among themselves and to their anchors, weakly to the rest.
+  int weak_group_size = 0;
+  // Points on the private patch, which only the group and its anchors see
+  // (on a ring, all of them: 1000 points add ~1000 matches to each of their
+  // pairs).
+  int weak_group_num_patch_points = 1000;
+  // Pairs of a group image and a non-anchor image keep at most this many of
+  // their true raw matches (picked at random); wrong matches are added on
+  // top in proportion, as everywhere.
+  int weak_group_max_matches_to_rest = 30;
+  // Number of anchors (0 to 5): the non-group images nearest to the group,
+  // which also see the patch and keep all their matches with the group.
+  int weak_group_num_anchors = 1;
+
+  // Wrong-rotation pairs (0 = none): pairs matched on repeated or symmetric
+  // structure. Their matches are geometrically consistent, but image B of
+  // the pair is seen as if turned by wrong_rotation_angle_deg towards image A
+  // about the vertical axis through the point it looks at (a rotationally
+  // symmetric object does that), so their relative rotation is wrong by that
+  // angle. The pair's true matches are replaced by symmetric ones: every
+  // point of the scene (not of a private patch) that A sees and the turned B
+  // would see, with keypoints appended to B's (beyond
+  // max_keypoints_per_image).
+  int num_wrong_rotation_pairs = 0;
+  // Angle by which the wrong-rotation pairs' relative rotation is wrong, deg.
+  double wrong_rotation_angle_deg = 30;
+  // Which pairs are made wrong, picked at random among the matched pairs
+  // whose images share at least 30 points (fewer if there are fewer):
+  //  "group_to_rest":    a weak-group image and a non-anchor image (B);
+  //  "group_to_anchors": a weak-group image and an anchor (B);
+  //  "any":              any matched pair (B is the second image).
+  std::string wrong_rotation_pairs = "group_to_rest";
+
+  // Pure-rotation images (0 = none): images moved to the camera centre of
+  // their nearest image, keeping their orientation, so that the two form a
+  // pair without baseline (panoramic; the translation direction of the pair
+  // is undefined).
+  int num_pure_rotation_images = 0;
+
+  // Long-baseline images (0 = none): images not matched to their nearest
+  // images, so that they are linked to the scene only across wide baselines.
+  int num_long_baseline_images = 0;
+  // How many of its nearest images a long-baseline image is not matched to.
+  int long_baseline_num_skipped_neighbors = 8;
+
+  // Weak bridge: the images are split into two halves (at the median of the
+  // camera centres along the direction in which they spread most); of the
+  // pairs across the split only the one with the most true matches is kept.
+  bool weak_bridge = false;
+  // True raw matches the bridge pair keeps at most (picked at random).
+  int weak_bridge_max_matches = 40;
+
   // Threads for the "colmap" verification; -1 = all cores.
   int num_threads = -1;
 
@@ -86,14 +150,40 @@ struct SyntheticSceneOptions {
   bool Check() const;
 };
 
+// The images and pairs that the failure-shape options picked, by image id
+// (image0001.png has id 1).
+struct SyntheticSceneShapes {
+  std::vector<colmap::image_t> weak_group_image_ids;
+  std::vector<colmap::image_t> weak_group_anchor_image_ids;
+  struct WrongRotationPair {
+    colmap::image_t image_id1 = 0;  // smaller id
+    colmap::image_t image_id2 = 0;
+    // The image seen as if turned (image B, either of the two).
+    colmap::image_t turned_image_id = 0;
+    // Symmetric matches stored for the pair (fewer than 15: not verified).
+    size_t num_matches = 0;
+  };
+  std::vector<WrongRotationPair> wrong_rotation_pairs;
+  // (moved image id, id of the image whose centre it shares).
+  std::vector<std::pair<colmap::image_t, colmap::image_t>>
+      pure_rotation_image_ids;
+  std::vector<colmap::image_t> long_baseline_image_ids;
+  // The pair that joins the two halves ((0, 0) without weak bridge), and the
+  // images of the half that holds the pair's first image.
+  std::pair<colmap::image_t, colmap::image_t> weak_bridge_pair = {0, 0};
+  std::vector<colmap::image_t> weak_bridge_half_image_ids;
+};
+
 // Writes a new COLMAP 3.8 database at `database_path` (fails if the file
 // exists) through colmap::Database: cameras, images named image0001.png...,
 // keypoints (6 columns, as COLMAP writes them), raw matches and two-view
 // geometries. Fills the empty `ground_truth` with the true cameras, the
 // registered images with their true poses and the stored keypoints as
 // Points2D, and the 3D points seen by at least two images with their tracks.
+// `shapes` (optional) receives what the failure-shape options picked.
 Status WriteSyntheticScene(const SyntheticSceneOptions& options,
                            const std::string& database_path,
-                           colmap::Reconstruction* ground_truth);
+                           colmap::Reconstruction* ground_truth,
+                           SyntheticSceneShapes* shapes = nullptr);
 
 }  // namespace glomap
