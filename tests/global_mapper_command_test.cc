@@ -193,6 +193,74 @@ TEST(GlobalMapperCommand, ReadsStockProjectFile) {
             0)
       << log;
   EXPECT_TRUE(fs::exists(output_path + "/0/images.bin"));
+
+  // Options on the command line count next to a project file, and win.
+  const int code =
+      RunCommand(ColmapExecutable() + " global_mapper --project_path " + ini +
+                     " --output_path " + project.dir + "/sparse_big" +
+                     " --GlobalMapper.min_model_size 1000",
+                 &log);
+  EXPECT_NE(code, 0) << log;
+  EXPECT_NE(log.find("at least 1000 images"), std::string::npos) << log;
+  EXPECT_FALSE(fs::exists(project.dir + "/sparse_big/0"));
+  EXPECT_NE(RunCommand(ColmapExecutable() + " global_mapper --project_path " +
+                           ini + " --output_path " + project.dir +
+                           "/sparse_bad --GlobalMapper.min_model_size x3",
+                       &log),
+            0);
+  EXPECT_NE(log.find("x3"), std::string::npos) << log;
+}
+
+// A rerun into a folder that holds more models from an earlier run leaves
+// exactly this run's models; other files stay.
+TEST(GlobalMapperCommand, RerunRemovesStaleModels) {
+  const Project project = MakeProject("command_stale_models");
+  const std::string output_path = project.dir + "/sparse";
+  std::string log;
+  ASSERT_EQ(RunCommand(MapperCommand(project, output_path), &log), 0) << log;
+  for (const char* stale : {"1", "2"}) {
+    fs::copy(output_path + "/0", output_path + "/" + stale);
+  }
+  fs::create_directories(output_path + "/7_notes");
+  std::ofstream(output_path + "/readme.txt") << "mine";
+  ASSERT_EQ(RunCommand(MapperCommand(project, output_path), &log), 0) << log;
+  EXPECT_TRUE(fs::exists(output_path + "/0/images.bin"));
+  EXPECT_FALSE(fs::exists(output_path + "/1"));
+  EXPECT_FALSE(fs::exists(output_path + "/2"));
+  EXPECT_TRUE(fs::exists(output_path + "/7_notes"));
+  EXPECT_TRUE(fs::exists(output_path + "/readme.txt"));
+  for (const auto& entry : fs::directory_iterator(output_path)) {
+    EXPECT_EQ(entry.path().filename().string().rfind(".global_mapper_tmp", 0),
+              std::string::npos)
+        << entry.path();
+  }
+}
+
+// A full disk (here: a file-size limit, with SIGXFSZ ignored so that writes
+// fail as they do on a full disk) gives an error and leaves the earlier
+// model in place, never a truncated one with exit code 0.
+TEST(GlobalMapperCommand, FullDiskIsAnErrorAndKeepsTheOldModel) {
+  const Project project = MakeProject("command_full_disk", 30);
+  const std::string output_path = project.dir + "/sparse";
+  std::string log;
+  ASSERT_EQ(RunCommand(MapperCommand(project, output_path), &log), 0) << log;
+  const std::string digest = FileDigest(output_path + "/0/points3D.bin");
+  const uintmax_t size = fs::file_size(output_path + "/0/points3D.bin");
+  ASSERT_GT(size, 20 * 1024u);
+  // ulimit -f counts 1024-byte blocks; trap '' XFSZ ignores the signal.
+  const std::string limited = "bash -c \"trap '' XFSZ; ulimit -f " +
+                              std::to_string(size / 1024 / 2) + "; " +
+                              MapperCommand(project, output_path) + "\"";
+  const int code = RunCommand(limited, &log);
+  EXPECT_NE(code, 0) << log;
+  EXPECT_LT(code, 128) << log;
+  EXPECT_NE(log.find("disk full"), std::string::npos) << log;
+  EXPECT_EQ(FileDigest(output_path + "/0/points3D.bin"), digest);
+  for (const auto& entry : fs::directory_iterator(output_path)) {
+    EXPECT_EQ(entry.path().filename().string().rfind(".global_mapper_tmp", 0),
+              std::string::npos)
+        << entry.path();
+  }
 }
 
 }  // namespace

@@ -60,6 +60,7 @@ double MaxRelativeRotationErrorDeg(const colmap::Reconstruction& model,
 
 struct SyntheticCase {
   bool prior_focal_length;
+  int seed;
 };
 
 class GlobalMapperSynthetic : public ::testing::TestWithParam<SyntheticCase> {};
@@ -70,13 +71,14 @@ class GlobalMapperSynthetic : public ::testing::TestWithParam<SyntheticCase> {};
 TEST_P(GlobalMapperSynthetic, TwoHundredImagesNoiseAndOutliers) {
   const std::string dir = testing::CreateTestDir(
       std::string("global_mapper_synthetic_") +
-      (GetParam().prior_focal_length ? "prior" : "no_prior"));
+      (GetParam().prior_focal_length ? "prior_" : "no_prior_") +
+      std::to_string(GetParam().seed));
   SyntheticSceneOptions scene;
   scene.num_images = 200;
   scene.pixel_noise_px = 1.0;
   scene.wrong_match_ratio = 0.3;
   scene.prior_focal_length = GetParam().prior_focal_length;
-  scene.random_seed = 7;
+  scene.random_seed = GetParam().seed;
   // Ten nearest neighbours per image keep the database small and its
   // verification (COLMAP's estimators) fast.
   scene.max_pairs_per_image = 10;
@@ -97,14 +99,27 @@ TEST_P(GlobalMapperSynthetic, TwoHundredImagesNoiseAndOutliers) {
   }
 }
 
+std::string SyntheticCaseName(
+    const ::testing::TestParamInfo<SyntheticCase>& info) {
+  return std::string(info.param.prior_focal_length ? "KnownFocal"
+                                                   : "UnknownFocal") +
+         "_seed" + std::to_string(info.param.seed);
+}
+
+// Two seeds in every test run; the bars hold for five (the other three are
+// opt-in: --gtest_also_run_disabled_tests, about 4 minutes).
 INSTANTIATE_TEST_SUITE_P(Synthetic, GlobalMapperSynthetic,
-                         ::testing::Values(SyntheticCase{true},
-                                           SyntheticCase{false}),
-                         [](const auto& info) {
-                           return std::string(info.param.prior_focal_length
-                                                  ? "KnownFocal"
-                                                  : "UnknownFocal");
-                         });
+                         ::testing::Values(SyntheticCase{true, 7},
+                                           SyntheticCase{false, 7},
+                                           SyntheticCase{true, 8},
+                                           SyntheticCase{false, 8}),
+                         SyntheticCaseName);
+INSTANTIATE_TEST_SUITE_P(
+    DISABLED_MoreSeeds, GlobalMapperSynthetic,
+    ::testing::Values(SyntheticCase{true, 9}, SyntheticCase{false, 9},
+                      SyntheticCase{true, 10}, SyntheticCase{false, 10},
+                      SyntheticCase{true, 11}, SyntheticCase{false, 11}),
+    SyntheticCaseName);
 
 // A nadir survey over hilly terrain, unknown focal length: the whole block
 // can bend at almost no reprojection cost, and bundle adjustment that stops

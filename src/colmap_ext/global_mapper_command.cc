@@ -5,6 +5,7 @@
 // atomically (written to a temporary folder, then renamed into place).
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -84,9 +85,82 @@ std::string PrepareOutputPath(const std::string& output_path) {
   return "";
 }
 
+// Size in bytes of COLMAP 3.8's binary model files for `model`, field by
+// field as Reconstruction::Write*Binary writes them.
+struct BinaryModelSizes {
+  uintmax_t cameras = 8;
+  uintmax_t images = 8;
+  uintmax_t points3D = 8;
+};
+
+BinaryModelSizes ExpectedBinarySizes(const Reconstruction& model) {
+  BinaryModelSizes sizes;
+  for (const auto& [camera_id, camera] : model.Cameras()) {
+    sizes.cameras += 4 + 4 + 8 + 8 + 8 * camera.NumParams();
+  }
+  for (const image_t image_id : model.RegImageIds()) {
+    const Image& image = model.Image(image_id);
+    sizes.images += 4 + 4 * 8 + 3 * 8 + 4 + image.Name().size() + 1 + 8 +
+                    image.NumPoints2D() * (8 + 8 + 8);
+  }
+  for (const auto& [point3D_id, point3D] : model.Points3D()) {
+    sizes.points3D += 8 + 3 * 8 + 3 + 8 + 8 + point3D.Track().Length() * 8;
+  }
+  return sizes;
+}
+
+// COLMAP's writers never check their streams: on a full disk they leave
+// truncated files behind and report nothing. Every file is checked against
+// the size it must have; "" if all are complete.
+std::string CheckWrittenModel(const Reconstruction& model,
+                              const fs::path& model_dir) {
+  const BinaryModelSizes expected = ExpectedBinarySizes(model);
+  const std::pair<const char*, uintmax_t> files[] = {
+      {"cameras.bin", expected.cameras},
+      {"images.bin", expected.images},
+      {"points3D.bin", expected.points3D}};
+  for (const auto& [name, size] : files) {
+    std::error_code error;
+    const uintmax_t written = fs::file_size(model_dir / name, error);
+    if (error || written != size) {
+      return std::string(name) + " is incomplete (" +
+             (error ? error.message()
+                    : std::to_string(written) + " of " + std::to_string(size) +
+                          " bytes written") +
+             "): is the disk full?";
+    }
+  }
+  std::error_code error;
+  if (fs::file_size(model_dir / "project.ini", error) == 0 || error) {
+    return "project.ini could not be written: is the disk full?";
+  }
+  return "";
+}
+
+// Whether `dir` is a model folder of an earlier run: named by a number and
+// holding a COLMAP model.
+bool IsNumberedModelDir(const fs::path& dir) {
+  const std::string name = dir.filename().string();
+  std::error_code error;
+  if (name.empty() ||
+      name.find_first_not_of("0123456789") != std::string::npos ||
+      !fs::is_directory(dir, error)) {
+    return false;
+  }
+  for (const char* ext : {".bin", ".txt"}) {
+    if (fs::exists(dir / (std::string("cameras") + ext), error) &&
+        fs::exists(dir / (std::string("images") + ext), error)) {
+      return true;
+    }
+  }
+  return false;
+}
+
 // Writes each model to OUTPUT/<k> so that a good model is never replaced by a
 // half-written one: everything is written to a temporary folder inside
-// OUTPUT first, then each model folder is swapped in with rename(2).
+// OUTPUT first and checked, then each model folder is swapped in with
+// rename(2). Model folders OUTPUT/<k> of an earlier run with more models are
+// removed, so that OUTPUT holds exactly this run's models.
 std::string WriteModelsAtomically(const ReconstructionManager& models,
                                   const std::string& output_path,
                                   const OptionManager& options) {
@@ -103,12 +177,29 @@ std::string WriteModelsAtomically(const ReconstructionManager& models,
       fs::create_directories(model_dir);
       models.Get(k).WriteBinary(model_dir.string());
       options.Write((model_dir / "project.ini").string());
+      const std::string incomplete =
+          CheckWrittenModel(models.Get(k), model_dir);
+      if (!incomplete.empty()) {
+        fs::remove_all(temp_dir, error);
+        return "Writing model " + std::to_string(k) + " failed: " + incomplete +
+               " Nothing in " + output_path + " was changed.";
+      }
     }
     for (size_t k = 0; k < models.Size(); ++k) {
       const fs::path final_dir = fs::path(output_path) / std::to_string(k);
       const fs::path old_dir = temp_dir / ("old_" + std::to_string(k));
       if (fs::exists(final_dir)) fs::rename(final_dir, old_dir);
       fs::rename(temp_dir / std::to_string(k), final_dir);
+    }
+    for (const fs::directory_entry& entry :
+         fs::directory_iterator(output_path)) {
+      const std::string name = entry.path().filename().string();
+      if (IsNumberedModelDir(entry.path()) &&
+          std::stoull(name.substr(0, 18)) >= models.Size()) {
+        fs::rename(entry.path(), temp_dir / ("stale_" + name));
+        std::cerr << "Removed " << entry.path().string()
+                  << ": a model of an earlier run." << std::endl;
+      }
     }
   } catch (const std::exception& e) {
     fs::remove_all(temp_dir, error);
@@ -161,9 +252,30 @@ int RunGlobalMapper(int argc, char** argv) {
   if (!HasArgument(argc, argv, "log_to_stderr")) FLAGS_logtostderr = true;
   if (has_project) {
     // Parse() ignores command-line values when a project file is given; the
-    // command line still decides where the output goes.
+    // command line still decides: it overrides the file.
     const std::string cli_output = FindArgument(argc, argv, "output_path");
     if (!cli_output.empty()) output_path = cli_output;
+    for (const char* name : {"database_path", "image_path"}) {
+      const std::string value = FindArgument(argc, argv, name);
+      if (!value.empty()) {
+        *(std::string(name) == "database_path" ? options.database_path
+                                               : options.image_path) = value;
+      }
+    }
+    const std::string cli_image_list =
+        FindArgument(argc, argv, "image_list_path");
+    if (!cli_image_list.empty()) image_list_path = cli_image_list;
+    const std::string prefix = "--GlobalMapper.";
+    for (int i = 1; i < argc; ++i) {
+      const std::string arg = argv[i];
+      if (arg.rfind(prefix, 0) != 0) continue;
+      if (i + 1 >= argc) return Fail("No value given for " + arg + ".");
+      std::string error;
+      if (!glomap::SetGlobalMapperOption(arg.substr(prefix.size()), argv[++i],
+                                         &mapper_options, &error)) {
+        return Fail("Command line: " + error + ".");
+      }
+    }
     const std::string error =
         CheckInputPaths(*options.database_path, *options.image_path);
     if (!error.empty()) return Fail(error);

@@ -1,7 +1,10 @@
 #include "colmap_ext/global_mapper_options.h"
 
+#include <algorithm>
 #include <boost/property_tree/ini_parser.hpp>
 #include <boost/property_tree/ptree.hpp>
+#include <stdexcept>
+#include <type_traits>
 
 #include "util/logging.h"
 #include "util/option_manager.h"
@@ -268,6 +271,43 @@ void AddGlobalMapperOptions(colmap::OptionManager* manager,
   }
 }
 
+bool SetGlobalMapperOption(const std::string& key, const std::string& text,
+                           GlobalMapperOptions* options, std::string* error) {
+  std::vector<GlobalMapperOptionEntry> table = GlobalMapperOptionTable(options);
+  const auto it =
+      std::find_if(table.begin(), table.end(),
+                   [&key](const auto& entry) { return entry.key == key; });
+  if (it == table.end()) {
+    *error = "unknown option GlobalMapper." + key;
+    return false;
+  }
+  try {
+    size_t end = 0;
+    std::visit(
+        [&](auto* value) {
+          using T = std::remove_pointer_t<decltype(value)>;
+          if constexpr (std::is_same_v<T, bool>) {
+            if (text != "0" && text != "1" && text != "true" &&
+                text != "false") {
+              throw std::invalid_argument(text);
+            }
+            *value = text == "1" || text == "true";
+            end = text.size();
+          } else if constexpr (std::is_same_v<T, int>) {
+            *value = std::stoi(text, &end);
+          } else {
+            *value = std::stod(text, &end);
+          }
+        },
+        it->value);
+    if (end != text.size()) throw std::invalid_argument(text);
+  } catch (const std::exception&) {
+    *error = "invalid value '" + text + "' for GlobalMapper." + key;
+    return false;
+  }
+  return true;
+}
+
 bool ReadGlobalMapperOptionsFile(const std::string& path,
                                  GlobalMapperOptions* options) {
   boost::property_tree::ptree tree;
@@ -279,34 +319,15 @@ bool ReadGlobalMapperOptionsFile(const std::string& path,
   }
   const auto section = tree.get_child_optional("GlobalMapper");
   if (!section) return true;
-  std::vector<GlobalMapperOptionEntry> table = GlobalMapperOptionTable(options);
   for (const auto& [key, node] : *section) {
-    auto it =
-        std::find_if(table.begin(), table.end(),
-                     [&key = key](const auto& e) { return e.key == key; });
-    if (it == table.end()) {
-      LOG(WARNING) << path << ": unknown option GlobalMapper." << key;
+    std::string error;
+    if (SetGlobalMapperOption(key, node.get_value<std::string>(), options,
+                              &error)) {
       continue;
     }
-    const std::string text = node.get_value<std::string>();
-    try {
-      std::visit(
-          [&](auto* value) {
-            using T = std::remove_pointer_t<decltype(value)>;
-            if constexpr (std::is_same_v<T, bool>) {
-              *value = text == "1" || text == "true";
-            } else if constexpr (std::is_same_v<T, int>) {
-              *value = std::stoi(text);
-            } else {
-              *value = std::stod(text);
-            }
-          },
-          it->value);
-    } catch (const std::exception&) {
-      LOG(WARNING) << path << ": invalid value '" << text
-                   << "' for GlobalMapper." << key;
-      return false;
-    }
+    LOG(WARNING) << path << ": " << error;
+    // Unknown keys (from a newer version) are skipped; bad values are not.
+    if (error.rfind("unknown", 0) != 0) return false;
   }
   return true;
 }

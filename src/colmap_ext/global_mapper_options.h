@@ -36,6 +36,12 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
 void AddGlobalMapperOptions(colmap::OptionManager* manager,
                             GlobalMapperOptions* options);
 
+// Sets the option `key` (without the "GlobalMapper." prefix) from its text
+// ("0"/"1"/"true"/"false" for switches); false with a one-line `error` for an
+// unknown key or a value that is not entirely a number of the option's type.
+bool SetGlobalMapperOption(const std::string& key, const std::string& text,
+                           GlobalMapperOptions* options, std::string* error);
+
 // Reads / writes the options as an INI file with a [GlobalMapper] section
 // (the GUI keeps them beside the project, in `<project>.global_mapper.ini`).
 // Unknown keys are ignored with a warning; returns false if the file cannot
