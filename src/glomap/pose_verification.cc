@@ -301,6 +301,24 @@ void CheckImage(const PoseVerificationOptions& options,
   if (set.size() < static_cast<size_t>(colmap::P3PEstimator::kMinNumSamples)) {
     return;
   }
+  // No pose can score more than all correspondences do: when the current
+  // pose is well supported and has the required fraction of that, it passes
+  // whatever RANSAC would find (most images of a sound model; this keeps the
+  // check cheap at scale).
+  size_t max_score = 0;
+  {
+    std::vector<size_t> per_source(set.num_sources, 0);
+    for (const uint32_t source : set.source_idxs) ++per_source[source];
+    for (const size_t count : per_source) max_score += std::min(count, cap);
+  }
+  if (current.num_inliers >= static_cast<size_t>(options.min_num_inliers) &&
+      current.num_inliers >= options.min_inlier_ratio * set.size() &&
+      current.capped_score >=
+          options.min_inlier_fraction_of_estimate * max_score) {
+    result.num_estimate_inliers = current.num_inliers;
+    result.estimate_score = current.capped_score;
+    return;
+  }
 
   // RANSAC with COLMAP's P3P solver but our score, so that one strongly
   // matched image (a symmetric structure, a wrong pair) cannot outvote the
