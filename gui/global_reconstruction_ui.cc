@@ -45,10 +45,12 @@ GlobalReconstructionUi::GlobalReconstructionUi(MainWindow* main_window)
   options_dialog_ = new GlobalMapperOptionsDialog(window_, &options_, [this]() {
     // Like a project file written by Save: keep the options with the
     // project as soon as it has a file.
-    if (ExistsFile(*window_->options_.project_path)) SaveProjectOptions();
+    ReportExceptions([this]() {
+      if (ExistsFile(*window_->options_.project_path)) SaveProjectOptions();
+    });
   });
   // `colmap gui --project_path p.ini` opened a project before we existed.
-  LoadProjectOptions();
+  ReportExceptions([this]() { LoadProjectOptions(); });
 
   window_->installEventFilter(this);
   connect(qApp, &QCoreApplication::aboutToQuit, this, [this]() {
@@ -105,14 +107,15 @@ void GlobalReconstructionUi::CreateActions() {
   action_run_ = new QAction(QIcon(icon), tr("Global reconstruction"), window_);
   action_run_->setToolTip(
       tr("Global reconstruction: all cameras at once (global mapper)"));
-  connect(action_run_, &QAction::triggered, this, [this]() { Run(); });
+  connect(action_run_, &QAction::triggered, this,
+          [this]() { ReportExceptions([this]() { Run(); }); });
   window_->blocking_actions_.push_back(action_run_);
 
   action_options_ =
       new QAction(QIcon(":/media/reconstruction-options.png"),
                   tr("Global reconstruction options..."), window_);
   connect(action_options_, &QAction::triggered, this,
-          [this]() { ShowOptions(); });
+          [this]() { ReportExceptions([this]() { ShowOptions(); }); });
   window_->blocking_actions_.push_back(action_options_);
 
   // Menu: after the incremental start/pause/step and after its options.
@@ -156,19 +159,23 @@ void GlobalReconstructionUi::CreateStatusWidgets() {
 
   progress_timer_ = new QTimer(this);
   connect(progress_timer_, &QTimer::timeout, this,
-          [this]() { UpdateProgress(); });
+          [this]() { ReportExceptions([this]() { UpdateProgress(); }); });
 }
 
 void GlobalReconstructionUi::ConnectProjectActions() {
   // MainWindow's own handlers were connected first, so these run after them
   // and see the project path they set.
   connect(window_->action_project_open_, &QAction::triggered, this, [this]() {
-    if (*window_->options_.project_path != options_project_path_) {
-      LoadProjectOptions();
-    }
+    ReportExceptions([this]() {
+      if (*window_->options_.project_path != options_project_path_) {
+        LoadProjectOptions();
+      }
+    });
   });
   const auto save = [this]() {
-    if (ExistsFile(*window_->options_.project_path)) SaveProjectOptions();
+    ReportExceptions([this]() {
+      if (ExistsFile(*window_->options_.project_path)) SaveProjectOptions();
+    });
   };
   connect(window_->action_project_save_, &QAction::triggered, this, save);
   connect(window_->action_project_save_as_, &QAction::triggered, this, save);
@@ -205,6 +212,15 @@ void GlobalReconstructionUi::ShowError(const std::string& message) {
                         QString::fromStdString(message));
 }
 
+void GlobalReconstructionUi::ReportExceptions(
+    const std::function<void()>& body) {
+  try {
+    body();
+  } catch (...) {
+    ShowError(glomap::StatusFromCurrentException().message());
+  }
+}
+
 void GlobalReconstructionUi::Run() {
   if (IsRunning()) return;
   if (!window_->options_.Check()) {
@@ -230,7 +246,9 @@ void GlobalReconstructionUi::Run() {
   controller->AddCallback(
       glomap::GlobalMapperController::STAGE_CALLBACK, [this]() {
         QMetaObject::invokeMethod(
-            this, [this]() { UpdateProgress(); }, Qt::QueuedConnection);
+            this,
+            [this]() { ReportExceptions([this]() { UpdateProgress(); }); },
+            Qt::QueuedConnection);
       });
   // The worker waits until the GUI has copied the model (as with
   // MainWindow's action_render_now_), so the viewer never sees it half
@@ -240,12 +258,15 @@ void GlobalReconstructionUi::Run() {
       [this, controller]() {
         if (controller->IsStopped()) return;
         QMetaObject::invokeMethod(
-            this, [this]() { OnModelUpdated(); }, Qt::BlockingQueuedConnection);
+            this,
+            [this]() { ReportExceptions([this]() { OnModelUpdated(); }); },
+            Qt::BlockingQueuedConnection);
       });
   controller->AddCallback(
       glomap::GlobalMapperController::FINISHED_CALLBACK, [this]() {
         QMetaObject::invokeMethod(
-            this, [this]() { OnFinished(); }, Qt::QueuedConnection);
+            this, [this]() { ReportExceptions([this]() { OnFinished(); }); },
+            Qt::QueuedConnection);
       });
 
   running_ = true;
@@ -261,7 +282,22 @@ void GlobalReconstructionUi::Run() {
   cancel_button_->show();
   UpdateProgress();
   progress_timer_->start(250);
-  controller->Start();
+  try {
+    controller->Start();
+  } catch (...) {
+    // No thread could be started (the system's limits): undo the above, so
+    // that the window is usable again, and say why.
+    last_status_ = glomap::StatusFromCurrentException();
+    running_ = false;
+    controller_.reset();
+    progress_timer_->stop();
+    window_->timer_.Pause();
+    UnlockWindow();
+    progress_label_->setText(tr("Global reconstruction failed"));
+    progress_bar_->hide();
+    cancel_button_->hide();
+    ShowError(last_status_.message());
+  }
 }
 
 void GlobalReconstructionUi::Cancel() {

@@ -8,6 +8,7 @@
 
 #include <QtCore>
 #include <QtWidgets>
+#include <functional>
 #include <memory>
 #include <string>
 #include <utility>
@@ -79,6 +80,11 @@ class GlobalReconstructionUi : public QObject {
   void LoadProjectOptions();
   void SaveProjectOptions();
   void ShowError(const std::string& message);
+  // Qt does not let an exception leave a slot or an event handler (it
+  // terminates the GUI): every entry point from Qt runs its body through
+  // this, which shows the exception (std::bad_alloc above all) as an error
+  // with the command line's text instead.
+  void ReportExceptions(const std::function<void()>& body);
 
   MainWindow* window_;
   glomap::GlobalMapperOptions options_;

@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include "base/database.h"
 #include "estimators/two_view_geometry.h"
@@ -119,6 +121,52 @@ void ExecuteSql(const std::string& path, const std::string& sql) {
   EXPECT_EQ(rc, SQLITE_OK) << (message ? message : "");
   sqlite3_free(message);
   sqlite3_close(db);
+}
+
+// Runs one SQL statement with one blob parameter (?1).
+void ExecuteSqlWithBlob(const std::string& path, const std::string& sql,
+                        const void* data, size_t num_bytes) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* stmt = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt, nullptr), SQLITE_OK)
+      << sqlite3_errmsg(db);
+  sqlite3_bind_blob(stmt, 1, data, static_cast<int>(num_bytes),
+                    SQLITE_TRANSIENT);
+  EXPECT_EQ(sqlite3_step(stmt), SQLITE_DONE) << sqlite3_errmsg(db);
+  sqlite3_finalize(stmt);
+  sqlite3_close(db);
+}
+
+// A fresh copy of the test database in its own folder, changed by `sql`.
+std::string DamagedCopy(const std::string& name, const std::string& sql = "") {
+  const std::string path =
+      MakeTestDatabase(testing::CreateTestDir("database_reader_" + name));
+  if (!sql.empty()) ExecuteSql(path, sql);
+  return path;
+}
+
+colmap::image_pair_t PairId(colmap::image_t id1, colmap::image_t id2) {
+  return colmap::Database::ImagePairToPairId(id1, id2);
+}
+
+size_t CountOccurrences(const std::string& text, const std::string& what) {
+  size_t count = 0;
+  for (size_t pos = text.find(what); pos != std::string::npos;
+       pos = text.find(what, pos + 1)) {
+    ++count;
+  }
+  return count;
+}
+
+// The log lines the reader wrote while reading `path`.
+std::string ReadAndCaptureLog(const std::string& path,
+                              colmap::Reconstruction* reconstruction,
+                              ViewGraph* view_graph, Status* status) {
+  ::testing::internal::CaptureStderr();
+  *status =
+      ReadDatabase(path, DatabaseReaderOptions(), reconstruction, view_graph);
+  return ::testing::internal::GetCapturedStderr();
 }
 
 Status Read(const std::string& path, const DatabaseReaderOptions& options,
@@ -252,8 +300,10 @@ TEST(DatabaseReader, Filters) {
     ViewGraph view_graph;
     const Status status = Read(path, options, &reconstruction, &view_graph);
     EXPECT_FALSE(status.ok());
+    // (2,4) has 22 matches, but only 20 valid ones.
     EXPECT_NE(status.message().find("no verified image pairs with at least 21 "
-                                    "matches: run a matcher first"),
+                                    "matches that can be used (1 pair was left "
+                                    "out as unusable"),
               std::string::npos)
         << status.message();
   }
@@ -342,17 +392,24 @@ TEST(DatabaseReader, Errors) {
   { colmap::Database database(empty_path); }
   expect_error(ReadDefault(empty_path), "contains no images");
 
+  const std::string one_image_path = dir + "/one_image.db";
   const std::string no_pairs_path = dir + "/no_pairs.db";
-  {
-    colmap::Database database(no_pairs_path);
+  for (const std::string& path : {one_image_path, no_pairs_path}) {
+    colmap::Database database(path);
     colmap::Camera camera;
     camera.InitializeWithName("SIMPLE_PINHOLE", 500, 100, 100);
     database.WriteCamera(camera);
-    colmap::Image image;
-    image.SetName("a");
-    image.SetCameraId(1);
-    database.WriteImage(image);
+    for (const char* name : {"a", "b"}) {
+      colmap::Image image;
+      image.SetName(name);
+      image.SetCameraId(1);
+      database.WriteImage(image);
+      if (path == one_image_path) break;
+    }
   }
+  expect_error(ReadDefault(one_image_path),
+               "Only one image of " + one_image_path +
+                   " can be used (a): a reconstruction needs at least two.");
   expect_error(ReadDefault(no_pairs_path),
                "no verified image pairs with at least 15 matches: run a "
                "matcher first");
@@ -383,6 +440,315 @@ TEST(DatabaseReader, Errors) {
   expect_error(
       ReadDefault(broken_copy("no_table", "DROP TABLE two_view_geometries;")),
       "is not a COLMAP database (no table two_view_geometries)");
+}
+
+// Keypoints with NaN or infinite coordinates keep their index (so that the
+// model's point2D indices stay the database's) but no match that uses them
+// is read; one warning per image says how much was dropped.
+TEST(DatabaseReader, NonFiniteKeypointsAndTheirMatchesAreDropped) {
+  const std::string path = DamagedCopy("nonfinite_keypoints");
+  // Image 1: keypoint 5 has x = NaN and keypoint 6 y = inf (two columns).
+  std::vector<float> keypoints1;
+  for (const colmap::FeatureKeypoint& keypoint : MakeKeypoints(30, 0)) {
+    keypoints1.push_back(keypoint.x);
+    keypoints1.push_back(keypoint.y);
+  }
+  keypoints1[2 * 5] = std::numeric_limits<float>::quiet_NaN();
+  keypoints1[2 * 6 + 1] = std::numeric_limits<float>::infinity();
+  ExecuteSqlWithBlob(path,
+                     "UPDATE keypoints SET rows = 30, cols = 2, data = ?1 "
+                     "WHERE image_id = 1;",
+                     keypoints1.data(), keypoints1.size() * sizeof(float));
+  // Image 4: every keypoint is NaN.
+  const std::vector<float> keypoints4(20 * 6,
+                                      -std::numeric_limits<float>::quiet_NaN());
+  ExecuteSqlWithBlob(path, "UPDATE keypoints SET data = ?1 WHERE image_id = 4;",
+                     keypoints4.data(), keypoints4.size() * sizeof(float));
+
+  colmap::Reconstruction reconstruction;
+  ViewGraph view_graph;
+  Status status;
+  const std::string log =
+      ReadAndCaptureLog(path, &reconstruction, &view_graph, &status);
+  ASSERT_TRUE(status.ok()) << status.message();
+
+  // (1,2) matches keypoint i of image 1 to i+1 of image 2, (1,3) keypoint
+  // (i+2) mod 17 of image 1 to i of image 3: both lose two matches. (2,4)
+  // keeps none and is dropped; (2,3) is untouched.
+  const auto& pairs = view_graph.Pairs();
+  ASSERT_EQ(pairs.size(), 3);
+  EXPECT_EQ(pairs.at(PairId(1, 2)).matches.size(), 18);
+  EXPECT_EQ(pairs.at(PairId(1, 3)).matches.size(), 15);
+  EXPECT_EQ(pairs.at(PairId(2, 3)).matches.size(), 20);
+  EXPECT_EQ(pairs.count(PairId(2, 4)), 0);
+  for (const auto& [pair_id, pair] : pairs) {
+    for (const colmap::FeatureMatch& match : pair.matches) {
+      EXPECT_TRUE(reconstruction.Image(pair.image_id1)
+                      .Point2D(match.point2D_idx1)
+                      .XY()
+                      .allFinite());
+      EXPECT_TRUE(reconstruction.Image(pair.image_id2)
+                      .Point2D(match.point2D_idx2)
+                      .XY()
+                      .allFinite());
+    }
+  }
+  ASSERT_EQ(reconstruction.Image(1).NumPoints2D(), 30);
+  EXPECT_TRUE(std::isnan(reconstruction.Image(1).Point2D(5).X()));
+  EXPECT_EQ(reconstruction.Image(1).Point2D(7).XY(), Eigen::Vector2d(7, 3.5));
+
+  EXPECT_EQ(CountOccurrences(log, "non-finite coordinates"), 2) << log;
+  EXPECT_NE(log.find("Image img1.jpg in " + path +
+                     " has non-finite coordinates (NaN or infinite) in 2 of "
+                     "30 keypoints: they are not used, nor the 4 verified "
+                     "matches that use them."),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("Image img4.jpg in " + path +
+                     " has non-finite coordinates (NaN or infinite) in 20 of "
+                     "20 keypoints: they are not used, nor the 20 verified "
+                     "matches that use them."),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("Ignored 1 verified pair in " + path +
+                     " left with fewer than 15 usable matches (e.g. images "
+                     "img2.jpg and img4.jpg)."),
+            std::string::npos)
+      << log;
+}
+
+// A camera whose values no camera has leaves its images out, as COLMAP's
+// incremental mapper skips images whose camera has bogus parameters; the
+// warning names the camera, and the error does when nothing is left.
+TEST(DatabaseReader, UnusableCameraLeavesItsImagesOut) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const struct {
+    std::string name;
+    // PINHOLE parameters of camera 2 (800x600): fx, fy, cx, cy.
+    std::vector<double> params;
+    std::string problem;
+  } cases[] = {
+      {"nan", {nan, 1000, 400, 300}, "has non-finite parameters (nan, 1000"},
+      {"inf", {1000, 1000, 400, -HUGE_VAL}, "has non-finite parameters"},
+      {"negative_focal",
+       {1000, -5, 400, 300},
+       "has the focal length -5 px, which is not positive"},
+      {"zero_focal",
+       {0, 1000, 400, 300},
+       "has the focal length 0 px, which is not positive"},
+      {"principal_point",
+       {1000, 1000, 1e7, 300},
+       "has its principal point at (1e+07, 300) px, far outside its 800x600 "
+       "image"},
+  };
+  for (const auto& c : cases) {
+    const std::string path = DamagedCopy("camera_" + c.name);
+    ExecuteSqlWithBlob(path,
+                       "UPDATE cameras SET params = ?1 WHERE camera_id = 2;",
+                       c.params.data(), c.params.size() * sizeof(double));
+    colmap::Reconstruction reconstruction;
+    ViewGraph view_graph;
+    Status status;
+    const std::string log =
+        ReadAndCaptureLog(path, &reconstruction, &view_graph, &status);
+    ASSERT_TRUE(status.ok()) << c.name << ": " << status.message();
+    EXPECT_EQ(reconstruction.NumImages(), 3) << c.name;
+    EXPECT_FALSE(reconstruction.ExistsImage(2)) << c.name;
+    EXPECT_FALSE(reconstruction.ExistsCamera(2)) << c.name;
+    ASSERT_EQ(view_graph.NumPairs(), 1) << c.name;
+    EXPECT_EQ(view_graph.Pairs().begin()->first, PairId(1, 3)) << c.name;
+    EXPECT_NE(log.find("Camera 2 in " + path + " " + c.problem),
+              std::string::npos)
+        << c.name << ": " << log;
+    EXPECT_NE(log.find("its 1 image is left out."), std::string::npos)
+        << c.name << ": " << log;
+    EXPECT_EQ(CountOccurrences(log, "Camera 2"), 1) << c.name << ": " << log;
+    // Pairs with a left-out image are no damage of their own.
+    EXPECT_EQ(log.find("do not name two images"), std::string::npos) << log;
+  }
+
+  // An unused camera is never looked at.
+  {
+    const std::string path = DamagedCopy("camera_unused");
+    const std::vector<double> params(8, nan);
+    ExecuteSqlWithBlob(path,
+                       "UPDATE cameras SET params = ?1 WHERE camera_id = 3;",
+                       params.data(), params.size() * sizeof(double));
+    colmap::Reconstruction reconstruction;
+    ViewGraph view_graph;
+    Status status;
+    const std::string log =
+        ReadAndCaptureLog(path, &reconstruction, &view_graph, &status);
+    ASSERT_TRUE(status.ok()) << status.message();
+    EXPECT_EQ(reconstruction.NumImages(), 4);
+    EXPECT_EQ(log.find("Camera 3"), std::string::npos) << log;
+  }
+
+  // Camera 1 has three of the four images: one image is too few.
+  const std::vector<double> bad_camera1 = {-800, 320, 240, -0.01};
+  const std::string one_left_path = DamagedCopy("camera_one_left");
+  ExecuteSqlWithBlob(one_left_path,
+                     "UPDATE cameras SET params = ?1 WHERE camera_id = 1;",
+                     bad_camera1.data(), bad_camera1.size() * sizeof(double));
+  Status status = ReadDefault(one_left_path);
+  EXPECT_EQ(status.message(),
+            "Only one image of " + one_left_path +
+                " can be used (img2.jpg): a reconstruction needs at least two "
+                "(3 more are left out: their cameras are unusable, see the "
+                "warnings above).");
+
+  // No usable camera at all: the error names one.
+  const std::vector<double> bad_camera2 = {1000, 1000, 400, nan};
+  ExecuteSqlWithBlob(one_left_path,
+                     "UPDATE cameras SET params = ?1 WHERE camera_id = 2;",
+                     bad_camera2.data(), bad_camera2.size() * sizeof(double));
+  status = ReadDefault(one_left_path);
+  EXPECT_EQ(status.message(),
+            "No image of " + one_left_path +
+                " can be used: camera 1 has the focal length -800 px, which "
+                "is not positive, and the other camera of its images is "
+                "unusable too.");
+}
+
+// Tables without their primary key may repeat an id. COLMAP reads the first
+// row of an id (and its matchers used it), so the reader does too, and
+// warns; a repeated keypoint row used to abort in Image::SetPoints2D.
+TEST(DatabaseReader, RepeatedRowsUseTheFirst) {
+  const std::string pair12 = std::to_string(PairId(1, 2));
+  const std::string path = DamagedCopy(
+      "repeated_rows",
+      "CREATE TABLE keypoints_copy AS SELECT * FROM keypoints;"
+      "DROP TABLE keypoints;"
+      "ALTER TABLE keypoints_copy RENAME TO keypoints;"
+      "INSERT INTO keypoints SELECT * FROM keypoints WHERE image_id = 2;"
+      "INSERT INTO keypoints VALUES (1, 3, 2, zeroblob(24));"
+      "INSERT INTO keypoints VALUES (1, 1, 2, zeroblob(8));"
+      "CREATE TABLE images_copy AS SELECT * FROM images;"
+      "DROP TABLE images;"
+      "ALTER TABLE images_copy RENAME TO images;"
+      "INSERT INTO images (image_id, name, camera_id) "
+      "VALUES (3, 'again3.jpg', 2);"
+      "CREATE TABLE geometries_copy AS SELECT * FROM two_view_geometries;"
+      "DROP TABLE two_view_geometries;"
+      "ALTER TABLE geometries_copy RENAME TO two_view_geometries;"
+      "INSERT INTO two_view_geometries SELECT * FROM two_view_geometries "
+      "WHERE pair_id = " +
+          pair12 +
+          ";"
+          "UPDATE two_view_geometries SET config = 4 "
+          "WHERE rowid = last_insert_rowid();");
+  colmap::Reconstruction reconstruction;
+  ViewGraph view_graph;
+  Status status;
+  const std::string log =
+      ReadAndCaptureLog(path, &reconstruction, &view_graph, &status);
+  ASSERT_TRUE(status.ok()) << status.message();
+  ASSERT_EQ(reconstruction.NumImages(), 4);
+  EXPECT_EQ(reconstruction.Image(1).NumPoints2D(), 30);
+  EXPECT_EQ(reconstruction.Image(2).NumPoints2D(), 30);
+  EXPECT_EQ(reconstruction.Image(3).Name(), "img3.jpg");
+  EXPECT_EQ(reconstruction.Image(3).CameraId(), 1);
+  EXPECT_EQ(view_graph.NumPairs(), 4);
+  EXPECT_EQ(view_graph.Pairs().at(PairId(1, 2)).config,
+            TwoViewGeometry::CALIBRATED);
+  EXPECT_NE(log.find("Image img1.jpg has 3 keypoint rows in " + path +
+                     "; the first is used, as COLMAP does, and 2 later rows "
+                     "ignored."),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("Image img2.jpg has 2 keypoint rows in " + path +
+                     "; the first is used, as COLMAP does, and 1 later row "
+                     "ignored."),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("Ignored 1 row of the images table of " + path +
+                     " that repeat an image id"),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("Ignored 1 repeated row of two_view_geometries in " +
+                     path + " (e.g. images img1.jpg and img2.jpg)"),
+            std::string::npos)
+      << log;
+}
+
+// Pairs that name no two images of the database and configs that COLMAP
+// never writes are ignored; unusable stored matrices are ignored, but the
+// pair's inlier matches are kept. One warning per kind, with an example.
+TEST(DatabaseReader, UnknownImagesAndUnusableGeometries) {
+  const auto copy_of_12 = [](colmap::image_pair_t pair_id) {
+    return "INSERT INTO two_view_geometries (pair_id, rows, cols, data, "
+           "config, F, E, H) SELECT " +
+           std::to_string(pair_id) +
+           ", rows, cols, data, config, F, E, H FROM two_view_geometries "
+           "WHERE pair_id = " +
+           std::to_string(PairId(1, 2)) + ";";
+  };
+  const std::string path = DamagedCopy(
+      "unusable_geometries",
+      copy_of_12(PairId(1, 99)) + copy_of_12(PairId(2, 2)) +
+          "UPDATE two_view_geometries SET config = 42 WHERE pair_id = " +
+          std::to_string(PairId(1, 3)) +
+          ";"
+          "UPDATE two_view_geometries SET F = NULL, E = zeroblob(0) "
+          "WHERE pair_id = " +
+          std::to_string(PairId(1, 2)) + ";");
+  Eigen::Matrix<double, 3, 3, Eigen::RowMajor> nonfinite_h =
+      Eigen::Matrix3d::Identity();
+  nonfinite_h(1, 2) = std::numeric_limits<double>::infinity();
+  ExecuteSqlWithBlob(path,
+                     "UPDATE two_view_geometries SET H = ?1 WHERE pair_id = " +
+                         std::to_string(PairId(2, 4)) + ";",
+                     nonfinite_h.data(), 9 * sizeof(double));
+
+  colmap::Reconstruction reconstruction;
+  ViewGraph view_graph;
+  Status status;
+  const std::string log =
+      ReadAndCaptureLog(path, &reconstruction, &view_graph, &status);
+  ASSERT_TRUE(status.ok()) << status.message();
+  const auto& pairs = view_graph.Pairs();
+  ASSERT_EQ(pairs.size(), 3);
+  const ImagePair& pair12 = pairs.at(PairId(1, 2));
+  EXPECT_EQ(pair12.F, Eigen::Matrix3d::Zero());
+  EXPECT_EQ(pair12.E, Eigen::Matrix3d::Zero());
+  EXPECT_EQ(pair12.H, Eigen::Matrix3d::Identity() + 0.01 * MakeMatrix(1));
+  EXPECT_EQ(pair12.matches.size(), 20);
+  EXPECT_EQ(pairs.count(PairId(1, 3)), 0);
+  EXPECT_EQ(pairs.at(PairId(2, 4)).H, Eigen::Matrix3d::Zero());
+  EXPECT_EQ(pairs.at(PairId(2, 4)).matches.size(), 20);
+  EXPECT_EQ(pairs.count(PairId(2, 3)), 1);
+
+  EXPECT_NE(log.find("Ignored 2 verified pairs in " + path +
+                     " that do not name two images of the database (e.g. "
+                     "pair id " +
+                     std::to_string(PairId(1, 99)) + ": image ids 1 and 99)."),
+            std::string::npos)
+      << log;
+  EXPECT_NE(log.find("Ignored 1 verified pair in " + path +
+                     " whose config is not a COLMAP two-view geometry type "
+                     "(0 to 8; e.g. images img1.jpg and img3.jpg: config "
+                     "42)."),
+            std::string::npos)
+      << log;
+  EXPECT_NE(
+      log.find("Ignored the stored F, E or H of 2 verified pairs in " + path +
+               " (NULL, empty or not finite; e.g. images img1.jpg and "
+               "img2.jpg): their inlier matches are used"),
+      std::string::npos)
+      << log;
+}
+
+// A run with too little left fails with an error that says why.
+TEST(DatabaseReader, NothingUsableLeftIsAnError) {
+  const std::string path = DamagedCopy(
+      "nothing_left", "UPDATE two_view_geometries SET config = 42;");
+  const Status status = ReadDefault(path);
+  EXPECT_FALSE(status.ok());
+  EXPECT_EQ(status.message(),
+            "The database " + path +
+                " has no verified image pairs with at least 15 matches that "
+                "can be used (5 pairs were left out as unusable, see the "
+                "warnings above).");
 }
 
 TEST(DatabaseReader, RealDatabaseStaysUnchanged) {

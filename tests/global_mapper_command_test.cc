@@ -2,10 +2,15 @@
 // on bad input, that it never changes the database, and that stock COLMAP
 // 3.8 reads what it writes.
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <sstream>
+#include <vector>
 
 #include "base/reconstruction.h"
 #include "glomap/synthetic_scene.h"
@@ -31,20 +36,24 @@ struct Project {
   std::string dir, database_path, image_path;
 };
 
-Project MakeProject(const std::string& name, int num_images = 12) {
+Project MakeProject(const std::string& name, SyntheticSceneOptions options) {
   Project project;
   project.dir = CreateTestDir(name);
   project.database_path = project.dir + "/database.db";
   project.image_path = project.dir + "/images";
   fs::create_directories(project.image_path);
-  SyntheticSceneOptions options;
-  options.num_images = num_images;
   options.random_seed = 3;
   colmap::Reconstruction ground_truth;
   const Status status =
       WriteSyntheticScene(options, project.database_path, &ground_truth);
   EXPECT_TRUE(status.ok()) << status.message();
   return project;
+}
+
+Project MakeProject(const std::string& name, int num_images = 12) {
+  SyntheticSceneOptions options;
+  options.num_images = num_images;
+  return MakeProject(name, options);
 }
 
 std::string MapperCommand(const Project& project, const std::string& output) {
@@ -261,6 +270,308 @@ TEST(GlobalMapperCommand, FullDiskIsAnErrorAndKeepsTheOldModel) {
               std::string::npos)
         << entry.path();
   }
+}
+
+// Lines of `log` that the command writes as its error ("ERROR: ...").
+std::vector<std::string> ErrorLines(const std::string& log) {
+  std::vector<std::string> lines;
+  std::istringstream in(log);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("ERROR: ", 0) == 0) lines.push_back(line);
+  }
+  return lines;
+}
+
+// What a user must see when a run fails: exit code 1 (no signal), exactly
+// one error line that says `expected`, no CHECK or terminate, no model.
+void ExpectOneLineError(const std::string& name, int code,
+                        const std::string& log, const std::string& expected,
+                        const std::string& output_path) {
+  EXPECT_EQ(code, 1) << name << ": " << log;
+  const std::vector<std::string> errors = ErrorLines(log);
+  ASSERT_EQ(errors.size(), 1u) << name << ": " << log;
+  EXPECT_NE(errors.front().find(expected), std::string::npos)
+      << name << ": " << errors.front();
+  EXPECT_EQ(log.find("Check failed"), std::string::npos) << name;
+  EXPECT_EQ(log.find("terminate called"), std::string::npos) << name;
+  EXPECT_FALSE(fs::exists(output_path + "/0")) << name;
+}
+
+// A run that succeeds although the database was damaged: a model, no CHECK,
+// and the warning that says what was left out.
+void ExpectModelWithWarning(const std::string& name, int code,
+                            const std::string& log, const std::string& warning,
+                            const std::string& output_path) {
+  EXPECT_EQ(code, 0) << name << ": " << log;
+  EXPECT_NE(log.find(warning), std::string::npos) << name << ": " << log;
+  EXPECT_EQ(log.find("Check failed"), std::string::npos) << name;
+  EXPECT_TRUE(ErrorLines(log).empty()) << name << ": " << log;
+  EXPECT_TRUE(fs::exists(output_path + "/0/images.bin")) << name;
+}
+
+void ExecuteSql(const std::string& path, const std::string& sql) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  char* message = nullptr;
+  EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &message),
+            SQLITE_OK)
+      << (message ? message : "");
+  sqlite3_free(message);
+  sqlite3_close(db);
+}
+
+// Changes the keypoints of one image in place: `change` gets the float32
+// values, row-major with `cols` per keypoint.
+void ChangeKeypoints(
+    const std::string& path, int image_id,
+    const std::function<void(std::vector<float>*, int)>& change) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* stmt = nullptr;
+  const std::string id = std::to_string(image_id);
+  ASSERT_EQ(
+      sqlite3_prepare_v2(
+          db,
+          ("SELECT cols, data FROM keypoints WHERE image_id = " + id).c_str(),
+          -1, &stmt, nullptr),
+      SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(stmt), SQLITE_ROW);
+  const int cols = sqlite3_column_int(stmt, 0);
+  std::vector<float> values(sqlite3_column_bytes(stmt, 1) / sizeof(float));
+  std::memcpy(values.data(), sqlite3_column_blob(stmt, 1),
+              values.size() * sizeof(float));
+  sqlite3_finalize(stmt);
+  change(&values, cols);
+  ASSERT_EQ(
+      sqlite3_prepare_v2(
+          db, ("UPDATE keypoints SET data = ?1 WHERE image_id = " + id).c_str(),
+          -1, &stmt, nullptr),
+      SQLITE_OK);
+  sqlite3_bind_blob(stmt, 1, values.data(),
+                    static_cast<int>(values.size() * sizeof(float)),
+                    SQLITE_TRANSIENT);
+  EXPECT_EQ(sqlite3_step(stmt), SQLITE_DONE);
+  sqlite3_finalize(stmt);
+  sqlite3_close(db);
+}
+
+void SetCameraParams(const std::string& path, int camera_id,
+                     const std::vector<double>& params) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* stmt = nullptr;
+  ASSERT_EQ(
+      sqlite3_prepare_v2(db,
+                         ("UPDATE cameras SET params = ?1 WHERE camera_id = " +
+                          std::to_string(camera_id))
+                             .c_str(),
+                         -1, &stmt, nullptr),
+      SQLITE_OK);
+  sqlite3_bind_blob(stmt, 1, params.data(),
+                    static_cast<int>(params.size() * sizeof(double)),
+                    SQLITE_TRANSIENT);
+  EXPECT_EQ(sqlite3_step(stmt), SQLITE_DONE);
+  sqlite3_finalize(stmt);
+  sqlite3_close(db);
+}
+
+// Issue 11, part 1: damaged content is left out with a warning, or is one
+// error line that names the camera; never a CHECK, a crash or a lost run.
+TEST(GlobalMapperCommand, DamagedDatabaseContent) {
+  const Project project = MakeProject("command_damaged_content");
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // SIMPLE_RADIAL, 1024x768: f, cx, cy, k.
+  const struct {
+    std::string name;
+    std::function<void(const std::string&)> damage;
+    // True: the run fails with `message` in its error line; false: it
+    // succeeds, with `message` in a warning.
+    bool fails;
+    std::string message;
+  } cases[] = {
+      {"nonfinite_keypoints",
+       [](const std::string& path) {
+         ChangeKeypoints(path, 1, [](std::vector<float>* values, int cols) {
+           for (size_t i = 0; i * cols < values->size(); i += 3) {
+             (*values)[i * cols] = std::numeric_limits<float>::quiet_NaN();
+           }
+           (*values)[cols + 1] = std::numeric_limits<float>::infinity();
+         });
+       },
+       false, "has non-finite coordinates (NaN or infinite) in"},
+      {"nan_focal",
+       [nan](const std::string& path) {
+         SetCameraParams(path, 1, {nan, 512, 384, 0});
+       },
+       true, "camera 1 has non-finite parameters (nan, 512, 384, 0)"},
+      {"negative_focal",
+       [](const std::string& path) {
+         SetCameraParams(path, 1, {-900, 512, 384, 0});
+       },
+       true, "camera 1 has the focal length -900 px, which is not positive"},
+      {"far_principal_point",
+       [](const std::string& path) {
+         SetCameraParams(path, 1, {900, 1e7, 384, 0});
+       },
+       true, "camera 1 has its principal point at (1e+07, 384) px"},
+      {"duplicate_keypoint_rows",
+       [](const std::string& path) {
+         ExecuteSql(path,
+                    "CREATE TABLE keypoints_copy AS SELECT * FROM keypoints;"
+                    "DROP TABLE keypoints;"
+                    "ALTER TABLE keypoints_copy RENAME TO keypoints;"
+                    "INSERT INTO keypoints SELECT * FROM keypoints "
+                    "WHERE image_id = 3;");
+       },
+       false, "has 2 keypoint rows in"},
+      {"unusable_geometries",
+       [](const std::string& path) {
+         ExecuteSql(path,
+                    "UPDATE two_view_geometries SET config = 42 "
+                    "WHERE pair_id % 5 = 0;"
+                    "UPDATE two_view_geometries SET F = NULL, E = NULL, "
+                    "H = NULL WHERE pair_id % 5 = 1;");
+       },
+       false, "whose config is not a COLMAP two-view geometry type"},
+      {"unknown_images",
+       [](const std::string& path) {
+         ExecuteSql(path,
+                    "INSERT INTO two_view_geometries SELECT pair_id + 998, "
+                    "rows, cols, data, config, F, E, H, qvec, tvec "
+                    "FROM two_view_geometries;");
+       },
+       false, "that do not name two images of the database"},
+  };
+  for (const auto& c : cases) {
+    const std::string dir = project.dir + "/" + c.name;
+    fs::create_directories(dir);
+    const std::string database_path = dir + "/database.db";
+    fs::copy_file(project.database_path, database_path);
+    c.damage(database_path);
+    const std::string output_path = dir + "/sparse";
+    std::string log;
+    const int code =
+        RunCommand(ColmapExecutable() + " global_mapper --database_path " +
+                       database_path + " --image_path " + project.image_path +
+                       " --output_path " + output_path,
+                   &log);
+    if (c.fails) {
+      ExpectOneLineError(c.name, code, log, c.message, output_path);
+    } else {
+      ExpectModelWithWarning(c.name, code, log, c.message, output_path);
+    }
+  }
+}
+
+// A camera that cannot be used leaves out its images, with a warning, and
+// the other cameras' images are reconstructed.
+TEST(GlobalMapperCommand, UnusableCameraLeavesOutItsImages) {
+  SyntheticSceneOptions options;
+  options.num_images = 16;
+  options.num_cameras = 2;
+  const Project project = MakeProject("command_unusable_camera", options);
+  SetCameraParams(project.database_path, 2,
+                  {900, 512, 384, std::numeric_limits<double>::infinity()});
+  const std::string output_path = project.dir + "/sparse";
+  std::string log;
+  const int code = RunCommand(MapperCommand(project, output_path), &log);
+  ExpectModelWithWarning(
+      "unusable camera", code, log,
+      "Camera 2 in " + project.database_path +
+          " has non-finite parameters (900, 512, 384, inf): its 8 images are "
+          "left out.",
+      output_path);
+  colmap::Reconstruction model;
+  model.Read(output_path + "/0");
+  EXPECT_EQ(model.NumRegImages(), 8);
+  EXPECT_EQ(model.NumCameras(), 1);
+}
+
+// Issue 11, part 2: a two-image project gives a two-view model when the
+// user allows models that small, and otherwise says which option does.
+TEST(GlobalMapperCommand, TwoAndOneImageProjects) {
+  const Project project = MakeProject("command_two_images", 10);
+  // Keep images 1 and 2 (neighbours on the ring) and their pair only.
+  const std::string pair12 = std::to_string(2147483647ll + 2);
+  ExecuteSql(project.database_path,
+             "DELETE FROM images WHERE image_id > 2;"
+             "DELETE FROM keypoints WHERE image_id > 2;"
+             "DELETE FROM descriptors WHERE image_id > 2;"
+             "DELETE FROM matches WHERE pair_id != " +
+                 pair12 +
+                 ";"
+                 "DELETE FROM two_view_geometries WHERE pair_id != " +
+                 pair12 + ";");
+  std::string log;
+  const std::string default_output = project.dir + "/sparse_default";
+  int code = RunCommand(MapperCommand(project, default_output), &log);
+  ExpectOneLineError("two images, default", code, log,
+                     "Only 2 images are connected by consistent matches, but "
+                     "models need at least 3 images "
+                     "(GlobalMapper.min_model_size): set it to 2",
+                     default_output);
+
+  const std::string output_path = project.dir + "/sparse";
+  code = RunCommand(
+      MapperCommand(project, output_path) + " --GlobalMapper.min_model_size 2",
+      &log);
+  ASSERT_EQ(code, 0) << log;
+  EXPECT_NE(log.find("Pose verification skipped"), std::string::npos) << log;
+  colmap::Reconstruction model;
+  model.Read(output_path + "/0");
+  EXPECT_EQ(model.NumRegImages(), 2);
+  EXPECT_GT(model.NumPoints3D(), 100);
+  EXPECT_LT(model.ComputeMeanReprojectionError(), 2.0);
+
+  // One image: nothing to reconstruct, whatever the options.
+  ExecuteSql(project.database_path, "DELETE FROM images WHERE image_id = 2;");
+  const std::string one_output = project.dir + "/sparse_one";
+  code = RunCommand(
+      MapperCommand(project, one_output) + " --GlobalMapper.min_model_size 2",
+      &log);
+  ExpectOneLineError("one image", code, log,
+                     "can be used (image0001.png): a reconstruction needs at "
+                     "least two.",
+                     one_output);
+}
+
+// Issue 11, part 3: running out of memory (here: an address-space limit) at
+// any point of the run is one error line and exit code 1, never an abort,
+// a crash or a hang. The limit grows until the run succeeds, so that every
+// stage gets its turn to fail on any machine.
+TEST(GlobalMapperCommand, OutOfMemoryIsOneErrorLine) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer reserves more address space than any "
+                  "limit allows";
+#endif
+  const Project project = MakeProject("command_out_of_memory", 10);
+  size_t num_out_of_memory = 0;
+  bool succeeded = false;
+  for (double limit_kb = 64 * 1024; limit_kb < 4 * 1024 * 1024 && !succeeded;
+       limit_kb *= 1.1) {
+    const std::string output_path =
+        project.dir + "/sparse_" + std::to_string(static_cast<int>(limit_kb));
+    std::string log;
+    const int code =
+        RunCommand("ulimit -v " + std::to_string(static_cast<int>(limit_kb)) +
+                       "; timeout 300 " + MapperCommand(project, output_path),
+                   &log);
+    // Below some limit the dynamic loader itself fails (exit code 127).
+    if (log.find("error while loading shared libraries") != std::string::npos) {
+      continue;
+    }
+    if (code == 0) {
+      succeeded = true;
+      break;
+    }
+    const std::string name = "limit " + std::to_string(limit_kb) + " KB";
+    EXPECT_NE(code, 124) << name << ": the run hung";
+    ExpectOneLineError(name, code, log, "", output_path);
+    num_out_of_memory += log.find("ERROR: Out of memory") != std::string::npos;
+  }
+  EXPECT_TRUE(succeeded);
+  EXPECT_GT(num_out_of_memory, 0u);
 }
 
 }  // namespace

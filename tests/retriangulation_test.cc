@@ -35,7 +35,7 @@ struct Scene {
 };
 
 Scene MakeScene(int num_images, int num_points, double wrong_match_ratio,
-                int seed) {
+                int seed, double radial_distortion = 0) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
@@ -43,6 +43,7 @@ Scene MakeScene(int num_images, int num_points, double wrong_match_ratio,
   colmap::Camera camera;
   camera.SetCameraId(1);
   camera.InitializeWithName("SIMPLE_RADIAL", 800, kWidth, kHeight);
+  camera.Params(camera.ExtraParamsIdxs()[0]) = radial_distortion;
   scene.reconstruction.AddCamera(camera);
 
   std::vector<colmap::image_t> image_ids;
@@ -254,6 +255,33 @@ TEST(Retriangulation, WithBundleAdjustment) {
   std::cout << "mean reprojection error " << mean_error << " px" << std::endl;
   EXPECT_LT(mean_error, 1.0);  // Keypoint noise sigma 0.5 px.
   EXPECT_TRUE(reconstruction.ExistsImage(kUnregisteredId));
+}
+
+// COLMAP's triangulator skips cameras whose parameters it deems bogus (an
+// extra parameter above 1, or a focal outside [0.1, 10] x the image size);
+// retriangulation uses the model's cameras as they are. Before, a camera
+// with k1 = 1.5 left no point and the run failed (dino-363 after bundle
+// adjustment of a model built with a 4x wrong focal).
+TEST(Retriangulation, UsesCamerasThatColmapDeemsBogus) {
+  Scene scene = MakeScene(20, 2000, 0.05, 6, /*radial_distortion=*/1.5);
+  ASSERT_TRUE(scene.reconstruction.Camera(1).HasBogusParams(0.1, 10, 1));
+  colmap::Reconstruction reconstruction = scene.reconstruction;
+  RetriangulationOptions options;
+  options.run_bundle_adjustment = false;
+  const Status status =
+      Retriangulate(options, scene.view_graph, &reconstruction);
+  ASSERT_TRUE(status.ok()) << status.message();
+  const PointStats stats = Evaluate(scene, reconstruction);
+  EXPECT_GT(stats.num_points, 0.9 * scene.num_points_in_3_views);
+  EXPECT_LT(stats.num_wrong_observations, 0.01 * stats.num_observations);
+  EXPECT_LT(stats.median_position_error, 0.01);
+
+  // With bundle adjustment (which needs points) the run succeeds too.
+  reconstruction = scene.reconstruction;
+  ASSERT_TRUE(
+      Retriangulate(RetriangulationOptions(), scene.view_graph, &reconstruction)
+          .ok());
+  EXPECT_GT(reconstruction.NumPoints3D(), 0.9 * scene.num_points_in_3_views);
 }
 
 TEST(Retriangulation, MinNumMatchesDropsPairs) {

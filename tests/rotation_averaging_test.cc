@@ -363,6 +363,56 @@ TEST(RotationAveraging, ErrorsAreReportedAsStatus) {
   }
 }
 
+// Rejection can shrink the solved component below a component that was
+// never solved: the result must come from the solved images only (this threw
+// std::out_of_range, looking up a rotation the last round never computed).
+TEST(RotationAveraging, RejectionLeavesAnUnsolvedComponentLargest) {
+  for (const int num_rounds : {1, 2}) {
+    std::mt19937 rng(13);
+    Scene scene;
+    AddImages(11, &rng, &scene);  // ids 3..13
+    const auto measure = [&scene](colmap::image_t id1, colmap::image_t id2,
+                                  double noise_deg, std::mt19937* rng) {
+      AddMeasuredPair(id1, id2,
+                      NoiseRotation(noise_deg, rng) * scene.rotations.at(id2) *
+                          scene.rotations.at(id1).conjugate(),
+                      100, &scene);
+    };
+    // Solved component: a noisy clique 3..6, whose pairs all disagree with
+    // the averaged rotations by more than the (tiny) threshold, and a chain
+    // 6-7-8, which fits exactly.
+    for (colmap::image_t id1 = 3; id1 <= 6; ++id1) {
+      for (colmap::image_t id2 = id1 + 1; id2 <= 6; ++id2) {
+        measure(id1, id2, 3.0, &rng);
+      }
+    }
+    measure(6, 7, 0.0, &rng);
+    measure(7, 8, 0.0, &rng);
+    // A second component 9..13: smaller than 3..8, larger than 6..8.
+    for (colmap::image_t id = 9; id < 13; ++id) measure(id, id + 1, 0.0, &rng);
+
+    RotationAveragingOptions options;
+    options.max_rotation_error_deg = 0.1;
+    options.num_rounds = num_rounds;
+    const Status status =
+        AverageRotations(options, &scene.view_graph, &scene.reconstruction);
+    ASSERT_TRUE(status.ok()) << status.message();
+    // What is left of 3..8 is smaller than 9..13 (the case of the crash) and
+    // holds the chain; 9..13 was never solved and stays unregistered.
+    EXPECT_LT(scene.reconstruction.NumRegImages(), 5);
+    for (colmap::image_t id = 6; id <= 13; ++id) {
+      EXPECT_EQ(scene.reconstruction.IsImageRegistered(id), id <= 8)
+          << "image " << id << ", " << num_rounds << " rounds";
+    }
+    for (const auto& [pair_id, pair] : scene.view_graph.Pairs()) {
+      if (!pair.is_valid) continue;
+      EXPECT_TRUE(scene.reconstruction.IsImageRegistered(pair.image_id1));
+      EXPECT_TRUE(scene.reconstruction.IsImageRegistered(pair.image_id2));
+      EXPECT_LT(RelativeRotationErrorDeg(pair, scene.reconstruction), 0.1);
+    }
+  }
+}
+
 // Scale check (not a correctness test): 2000 images, 60,000 pairs.
 TEST(RotationAveraging, Timing2000Images60000Pairs) {
   Scene scene = MakeScene(2000, 60000, 1.0, 0.1, 11);

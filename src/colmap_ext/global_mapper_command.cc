@@ -6,7 +6,9 @@
 #include <unistd.h>
 
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <iostream>
 #include <system_error>
@@ -15,6 +17,7 @@
 #include "colmap_ext/commands.h"
 #include "colmap_ext/global_mapper_options.h"
 #include "glomap/global_mapper_controller.h"
+#include "glomap/status.h"
 #include "util/misc.h"
 #include "util/option_manager.h"
 
@@ -209,9 +212,29 @@ std::string WriteModelsAtomically(const ReconstructionManager& models,
   return "";
 }
 
-}  // namespace
+// Last resort for an exception that leaves a thread we do not own (a Ceres
+// worker; our own threads catch everything): one error line and exit code 1,
+// as for any other error, instead of "terminate called" and SIGABRT.
+[[noreturn]] void ReportTerminationAndExit() {
+  // Nothing may leave a terminate handler (the runtime would abort), and
+  // building the message needs memory that may be gone.
+  try {
+    std::string message =
+        "Internal error: the run was terminated (please report it).";
+    // Only an uncaught exception can be rethrown here; without one, `throw;`
+    // would call std::terminate again.
+    if (std::current_exception()) {
+      message = glomap::StatusFromCurrentException().message();
+    }
+    std::fprintf(stderr, "ERROR: %s\n", message.c_str());
+  } catch (...) {
+    std::fprintf(stderr, "ERROR: %s\n", glomap::kOutOfMemoryMessage);
+  }
+  std::fflush(stderr);
+  std::_Exit(EXIT_FAILURE);
+}
 
-int RunGlobalMapper(int argc, char** argv) {
+int RunGlobalMapperOrThrow(int argc, char** argv) {
   glomap::GlobalMapperOptions mapper_options;
   std::string output_path;
   std::string image_list_path;
@@ -317,6 +340,19 @@ int RunGlobalMapper(int argc, char** argv) {
               << std::endl;
   }
   return EXIT_SUCCESS;
+}
+
+}  // namespace
+
+int RunGlobalMapper(int argc, char** argv) {
+  std::set_terminate(&ReportTerminationAndExit);
+  // The pipeline thread reports its own exceptions as a status; this catches
+  // those of the command itself (options, paths, writing the models).
+  try {
+    return RunGlobalMapperOrThrow(argc, argv);
+  } catch (...) {
+    return Fail(glomap::StatusFromCurrentException().message());
+  }
 }
 
 }  // namespace colmap

@@ -45,7 +45,8 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Seed of every random choice: same input and seed, same model");
   b.Add("num_threads", &o->num_threads, "Threads (-1: all cores)");
   b.Add("min_model_size", &o->min_model_size,
-        "Camera clusters with fewer images are not written");
+        "Camera clusters with fewer images are not written (at least 2: "
+        "a two-image project needs 2)");
   b.Add("skip_view_graph_calibration", &o->skip_view_graph_calibration,
         "Keep the database's focal lengths");
   b.Add("skip_bundle_adjustment", &o->skip_bundle_adjustment,
@@ -69,6 +70,13 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("vgc_loss_scale", &vgc.loss_scale, "Cauchy loss scale");
   b.Add("vgc_max_num_iterations", &vgc.max_num_iterations,
         "Maximum solver iterations");
+  b.Add("vgc_multi_view_num_images", &vgc.multi_view_num_images,
+        "Images of the small incremental reconstruction that calibrates "
+        "focal lengths the fundamental matrices miss (0: off)");
+  b.Add("vgc_multi_view_min_rotation_bias_deg",
+        &vgc.multi_view_min_rotation_bias_deg,
+        "Use its focal lengths only where they change the relative "
+        "rotations by at least this much in the median [deg]");
 
   b.Group("Relative poses");
   auto& rp = o->relative_pose;

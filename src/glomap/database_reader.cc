@@ -3,12 +3,15 @@
 #include <sqlite3.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <memory>
+#include <sstream>
 #include <unordered_map>
 #include <unordered_set>
 #include <utility>
@@ -23,7 +26,65 @@ namespace {
 // COLMAP 3.8's Database::kMaxNumImages: pair_id = id1 * kMax + id2.
 constexpr int64_t kPairIdFactor = 2147483647;
 
+// A camera whose principal point lies farther outside its image than this
+// fraction of the image size (per axis) is damaged: even a crop of a larger
+// sensor keeps it near the image, and values like 10 million px put every ray
+// almost at right angles to the optical axis.
+constexpr double kMaxPrincipalPointOutsideRatio = 1.0;
+
+// Warnings that name one image each stop after this many; one more line
+// counts the rest.
+constexpr size_t kMaxNamedWarnings = 10;
+
 using colmap::TwoViewGeometry;
+
+// "1 pair", "2 pairs".
+std::string CountOf(size_t count, const std::string& noun,
+                    const std::string& plural = "") {
+  return std::to_string(count) + " " +
+         (count == 1       ? noun
+          : plural.empty() ? noun + "s"
+                           : plural);
+}
+
+std::string FormatValue(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+// Why a camera cannot be used, or "" if it can: values that no real camera
+// has and that would reach the solvers as NaN or a degenerate projection.
+std::string CameraProblem(const colmap::Camera& camera) {
+  if (!std::all_of(camera.Params().begin(), camera.Params().end(),
+                   [](double param) { return std::isfinite(param); })) {
+    std::string params;
+    for (const double param : camera.Params()) {
+      params += (params.empty() ? "" : ", ") + FormatValue(param);
+    }
+    return "has non-finite parameters (" + params + ")";
+  }
+  for (const size_t idx : camera.FocalLengthIdxs()) {
+    if (!(camera.Params(idx) > 0)) {
+      return "has the focal length " + FormatValue(camera.Params(idx)) +
+             " px, which is not positive";
+    }
+  }
+  const double width = static_cast<double>(camera.Width());
+  const double height = static_cast<double>(camera.Height());
+  const double margin_x = kMaxPrincipalPointOutsideRatio * width;
+  const double margin_y = kMaxPrincipalPointOutsideRatio * height;
+  const double cx = camera.PrincipalPointX();
+  const double cy = camera.PrincipalPointY();
+  if (cx < -margin_x || cx > width + margin_x || cy < -margin_y ||
+      cy > height + margin_y) {
+    return "has its principal point at (" + FormatValue(cx) + ", " +
+           FormatValue(cy) + ") px, far outside its " +
+           std::to_string(camera.Width()) + "x" +
+           std::to_string(camera.Height()) + " image";
+  }
+  return "";
+}
 
 struct SqliteCloser {
   void operator()(sqlite3* db) const { sqlite3_close_v2(db); }
@@ -87,13 +148,30 @@ class Reader {
                          ".");
   }
 
+  // Keypoints of one image whose coordinates are NaN or infinite: they keep
+  // their index (so that the model's point2D indices stay the database's
+  // keypoint indices) but no match that uses them is read.
+  struct NonFiniteKeypoints {
+    std::vector<char> is_nonfinite;  // One flag per keypoint.
+    size_t num_keypoints = 0;
+    size_t num_dropped_matches = 0;
+  };
+
   const std::string path_;
   const DatabaseReaderOptions& options_;
   SqlitePtr db_;
 
   std::unordered_map<colmap::camera_t, colmap::Camera> cameras_;
+  // Why a camera is unusable (see CameraProblem), for unusable cameras only.
+  std::map<colmap::camera_t, std::string> camera_problems_;
   std::unordered_map<colmap::image_t, colmap::Image> images_;
+  // Images in the database that are not read (not among the requested
+  // names, or on an unusable camera): pairs that name them are skipped
+  // without a warning.
+  std::unordered_set<colmap::image_t> left_out_image_ids_;
+  // Number of keypoints per image with a keypoints row (0 for an empty row).
   std::unordered_map<colmap::image_t, uint32_t> num_points2D_;
+  std::unordered_map<colmap::image_t, NonFiniteKeypoints> nonfinite_keypoints_;
   std::unordered_map<colmap::image_pair_t, int> num_raw_matches_;
 };
 
@@ -196,6 +274,7 @@ Status Reader::ReadCameras() {
       "FROM cameras;",
       &stmt);
   if (!status.ok()) return status;
+  size_t num_duplicate_rows = 0;
   int rc;
   while ((rc = sqlite3_step(stmt.get())) == SQLITE_ROW) {
     sqlite3_stmt* row = stmt.get();
@@ -243,9 +322,25 @@ Status Reader::ReadCameras() {
       std::memcpy(camera.ParamsData(), sqlite3_column_blob(row, 4), num_bytes);
     }
     camera.SetPriorFocalLength(sqlite3_column_int64(row, 5) != 0);
+    // A table without its primary key may repeat an id; the first row is
+    // the one COLMAP's Database::ReadCamera returns.
+    if (cameras_.count(camera.CameraId()) > 0) {
+      ++num_duplicate_rows;
+      continue;
+    }
+    std::string problem = CameraProblem(camera);
+    if (!problem.empty()) {
+      camera_problems_.emplace(camera.CameraId(), std::move(problem));
+    }
     cameras_.emplace(camera.CameraId(), std::move(camera));
   }
   if (rc != SQLITE_DONE) return StepError("cameras");
+  if (num_duplicate_rows > 0) {
+    LOG(WARNING) << "Ignored " << CountOf(num_duplicate_rows, "row")
+                 << " of the cameras table of " << path_
+                 << " that repeat a camera id; the first row of each camera "
+                    "is used, as COLMAP does.";
+  }
   return Status::Ok();
 }
 
@@ -258,6 +353,9 @@ Status Reader::ReadImages() {
       "prior_qz, prior_tx, prior_ty, prior_tz FROM images;",
       &stmt);
   if (!status.ok()) return status;
+  // Images left out because their camera is unusable, by camera.
+  std::map<colmap::camera_t, size_t> num_images_of_unusable_camera;
+  size_t num_duplicate_rows = 0;
   int rc;
   while ((rc = sqlite3_step(stmt.get())) == SQLITE_ROW) {
     sqlite3_stmt* row = stmt.get();
@@ -265,9 +363,20 @@ Status Reader::ReadImages() {
     const unsigned char* name_text = sqlite3_column_text(row, 1);
     const std::string name =
         name_text ? reinterpret_cast<const char*>(name_text) : "";
-    if (!selected.empty() && selected.count(name) == 0) continue;
+    if (!selected.empty() && selected.count(name) == 0) {
+      if (image_id >= 0 && image_id < kPairIdFactor) {
+        left_out_image_ids_.insert(static_cast<colmap::image_t>(image_id));
+      }
+      continue;
+    }
     if (image_id < 0 || image_id >= kPairIdFactor) {
       return Corrupt("invalid image id " + std::to_string(image_id));
+    }
+    // The first row of a repeated id is the one COLMAP reads.
+    if (images_.count(static_cast<colmap::image_t>(image_id)) > 0 ||
+        left_out_image_ids_.count(static_cast<colmap::image_t>(image_id)) > 0) {
+      ++num_duplicate_rows;
+      continue;
     }
     const int64_t camera_id = sqlite3_column_int64(row, 2);
     if (camera_id < 0 ||
@@ -276,6 +385,13 @@ Status Reader::ReadImages() {
                            std::to_string(image_id) + ") in " + path_ +
                            " refers to camera " + std::to_string(camera_id) +
                            ", which is not in the database.");
+    }
+    // COLMAP's incremental mapper skips images whose camera has bogus
+    // parameters; so do we, and say so below.
+    if (camera_problems_.count(static_cast<colmap::camera_t>(camera_id)) > 0) {
+      ++num_images_of_unusable_camera[static_cast<colmap::camera_t>(camera_id)];
+      left_out_image_ids_.insert(static_cast<colmap::image_t>(image_id));
+      continue;
     }
     colmap::Image image;
     image.SetImageId(static_cast<colmap::image_t>(image_id));
@@ -296,6 +412,33 @@ Status Reader::ReadImages() {
   }
   if (rc != SQLITE_DONE) return StepError("images");
 
+  if (num_duplicate_rows > 0) {
+    LOG(WARNING) << "Ignored " << CountOf(num_duplicate_rows, "row")
+                 << " of the images table of " << path_
+                 << " that repeat an image id; the first row of each image is "
+                    "used, as COLMAP does.";
+  }
+  for (const auto& [camera_id, num_images] : num_images_of_unusable_camera) {
+    LOG(WARNING) << "Camera " << camera_id << " in " << path_ << " "
+                 << camera_problems_.at(camera_id) << ": its "
+                 << CountOf(num_images, "image")
+                 << (num_images == 1 ? " is" : " are") << " left out.";
+  }
+  if (images_.empty() && !num_images_of_unusable_camera.empty()) {
+    const auto& [camera_id, num_images] =
+        *num_images_of_unusable_camera.begin();
+    std::string message = "No image of " + path_ + " can be used: camera " +
+                          std::to_string(camera_id) + " " +
+                          camera_problems_.at(camera_id);
+    const size_t num_others = num_images_of_unusable_camera.size() - 1;
+    if (num_others == 1) {
+      message += ", and the other camera of its images is unusable too";
+    } else if (num_others > 1) {
+      message += ", and the " + std::to_string(num_others) +
+                 " other cameras of its images are unusable too";
+    }
+    return Status::Error(message + ".");
+  }
   if (images_.empty()) {
     if (selected.empty()) {
       return Status::Error("The database " + path_ + " contains no images.");
@@ -304,10 +447,25 @@ Status Reader::ReadImages() {
                          " requested image names is in the database " + path_ +
                          ".");
   }
-  if (!selected.empty() && images_.size() < selected.size()) {
-    LOG(WARNING) << selected.size() - images_.size()
+  size_t num_found = images_.size();
+  for (const auto& [camera_id, num_images] : num_images_of_unusable_camera) {
+    num_found += num_images;
+  }
+  if (!selected.empty() && num_found < selected.size()) {
+    LOG(WARNING) << selected.size() - num_found
                  << " of the requested image names are not in the database "
                  << path_ << "; ignoring them.";
+  }
+  if (images_.size() == 1) {
+    const size_t num_left_out = num_found - 1;
+    return Status::Error("Only one image of " + path_ + " can be used (" +
+                         images_.begin()->second.Name() +
+                         "): a reconstruction needs at least two" +
+                         (num_left_out == 0
+                              ? std::string(".")
+                              : " (" + std::to_string(num_left_out) +
+                                    " more are left out: their cameras are "
+                                    "unusable, see the warnings above)."));
   }
   return Status::Ok();
 }
@@ -319,12 +477,23 @@ Status Reader::ReadKeypoints() {
   if (!status.ok()) return status;
   std::vector<Eigen::Vector2d> points;
   std::vector<float> row_values;
+  // Extra keypoint rows per image (a table without its primary key).
+  std::map<colmap::image_t, size_t> num_extra_rows;
   int rc;
   while ((rc = sqlite3_step(stmt.get())) == SQLITE_ROW) {
     sqlite3_stmt* row = stmt.get();
     const int64_t image_id = sqlite3_column_int64(row, 0);
     const auto image_it = images_.find(static_cast<colmap::image_t>(image_id));
     if (image_id < 0 || image_it == images_.end()) continue;
+    // A table scan returns rows in rowid order, so the first row of an image
+    // is the one COLMAP's Database::ReadKeypoints returns, and the one its
+    // matchers used: later rows are ignored.
+    const auto [num_points_it, is_first_row] =
+        num_points2D_.emplace(image_it->first, 0);
+    if (!is_first_row) {
+      ++num_extra_rows[image_it->first];
+      continue;
+    }
     const int64_t rows = sqlite3_column_int64(row, 1);
     const int64_t cols = sqlite3_column_int64(row, 2);
     const std::string what =
@@ -348,14 +517,38 @@ Status Reader::ReadKeypoints() {
     row_values.resize(static_cast<size_t>(rows * cols));
     std::memcpy(row_values.data(), blob, static_cast<size_t>(num_bytes));
     points.resize(static_cast<size_t>(rows));
+    size_t num_nonfinite = 0;
     for (int64_t i = 0; i < rows; ++i) {
-      points[i] =
-          Eigen::Vector2d(row_values[i * cols], row_values[i * cols + 1]);
+      const float x = row_values[i * cols];
+      const float y = row_values[i * cols + 1];
+      points[i] = Eigen::Vector2d(x, y);
+      num_nonfinite += !(std::isfinite(x) && std::isfinite(y));
+    }
+    if (num_nonfinite > 0) {
+      NonFiniteKeypoints& nonfinite = nonfinite_keypoints_[image_it->first];
+      nonfinite.num_keypoints = num_nonfinite;
+      nonfinite.is_nonfinite.resize(static_cast<size_t>(rows));
+      for (int64_t i = 0; i < rows; ++i) {
+        nonfinite.is_nonfinite[i] = !points[i].allFinite();
+      }
     }
     image_it->second.SetPoints2D(points);
-    num_points2D_[image_it->first] = static_cast<uint32_t>(rows);
+    num_points_it->second = static_cast<uint32_t>(rows);
   }
   if (rc != SQLITE_DONE) return StepError("keypoints");
+
+  size_t num_named = 0;
+  for (const auto& [image_id, num_rows] : num_extra_rows) {
+    if (++num_named > kMaxNamedWarnings) {
+      LOG(WARNING) << "... and " << num_extra_rows.size() - kMaxNamedWarnings
+                   << " more images with repeated keypoint rows.";
+      break;
+    }
+    LOG(WARNING) << "Image " << images_.at(image_id).Name() << " has "
+                 << num_rows + 1 << " keypoint rows in " << path_
+                 << "; the first is used, as COLMAP does, and "
+                 << CountOf(num_rows, "later row") << " ignored.";
+  }
   return Status::Ok();
 }
 
@@ -374,21 +567,37 @@ Status Reader::ReadRawMatchCounts() {
   return Status::Ok();
 }
 
+// What a matrix column of two_view_geometries holds.
+enum class MatrixBlob { kSet, kUnusable, kWrongSize };
+
 // Reads a 3x3 float64 matrix stored row-major (COLMAP transposes Eigen's
-// column-major matrices before writing); an empty blob means "not set".
-bool ReadMatrixBlob(sqlite3_stmt* row, int col, Eigen::Matrix3d* matrix) {
+// column-major matrices before writing). A zero matrix means "not
+// estimated", as COLMAP writes it; NULL, an empty blob or non-finite values
+// (which COLMAP never writes) leave a zero matrix and are kUnusable.
+MatrixBlob ReadMatrixBlob(sqlite3_stmt* row, int col, Eigen::Matrix3d* matrix) {
   const int num_bytes = sqlite3_column_bytes(row, col);
-  if (num_bytes == 0) {
-    matrix->setZero();
-    return true;
-  }
-  if (num_bytes != 9 * sizeof(double)) return false;
+  matrix->setZero();
+  if (num_bytes == 0) return MatrixBlob::kUnusable;
+  if (num_bytes != 9 * sizeof(double)) return MatrixBlob::kWrongSize;
   double values[9];
   std::memcpy(values, sqlite3_column_blob(row, col), sizeof(values));
-  *matrix =
-      Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(values);
-  return true;
+  const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> stored(
+      values);
+  if (!stored.allFinite()) return MatrixBlob::kUnusable;
+  *matrix = stored;
+  return MatrixBlob::kSet;
 }
+
+// Pairs of one kind that the reader skips or changes: how many, and one of
+// them for the warning.
+struct PairCount {
+  size_t num_pairs = 0;
+  std::string example;
+
+  void Add(const std::string& pair_text) {
+    if (num_pairs++ == 0) example = pair_text;
+  }
+};
 
 Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
   StatementPtr stmt;
@@ -400,22 +609,75 @@ Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
   const int min_num_matches = std::max(options_.min_num_matches, 1);
   sqlite3_bind_int64(stmt.get(), 1, min_num_matches);
 
-  size_t num_dropped_matches = 0;
-  size_t num_pairs_with_dropped = 0;
+  const auto is_known = [this](int64_t image_id) {
+    return images_.count(static_cast<colmap::image_t>(image_id)) > 0 ||
+           left_out_image_ids_.count(static_cast<colmap::image_t>(image_id)) >
+               0;
+  };
+  // Pair ids read so far. Rows of a table with its primary key come in
+  // increasing pair id order (their rowid), so a pair can only repeat once
+  // that order breaks; only then do the ids go into a hash set.
+  std::vector<colmap::image_pair_t> seen_in_order;
+  std::unordered_set<colmap::image_pair_t> seen_set;
+  const auto first_time = [&](colmap::image_pair_t pair_id) {
+    if (seen_set.empty()) {
+      if (seen_in_order.empty() || pair_id > seen_in_order.back()) {
+        seen_in_order.push_back(pair_id);
+        return true;
+      }
+      seen_set.insert(seen_in_order.begin(), seen_in_order.end());
+    }
+    return seen_set.insert(pair_id).second;
+  };
+  PairCount unknown_images;
+  PairCount duplicate_rows;
+  PairCount unknown_config;
+  PairCount unusable_matrices;
+  // Pairs left with fewer than min_num_matches matches once the matches
+  // that use missing or non-finite keypoints are dropped.
+  PairCount too_few_left;
+  size_t num_out_of_range_matches = 0;
+  size_t num_pairs_out_of_range = 0;
+  size_t num_nonfinite_matches = 0;
   std::vector<uint32_t> blob_values;
   int rc;
   while ((rc = sqlite3_step(stmt.get())) == SQLITE_ROW) {
     sqlite3_stmt* row = stmt.get();
     const int64_t pair_id = sqlite3_column_int64(row, 0);
-    if (pair_id < 0) continue;
-    const int64_t id2 = pair_id % kPairIdFactor;
-    const int64_t id1 = pair_id / kPairIdFactor;
-    if (id1 >= kPairIdFactor || id1 == id2) continue;
-    const auto image1 = images_.find(static_cast<colmap::image_t>(id1));
-    const auto image2 = images_.find(static_cast<colmap::image_t>(id2));
-    if (image1 == images_.end() || image2 == images_.end()) continue;
+    const int64_t id2 = pair_id < 0 ? -1 : pair_id % kPairIdFactor;
+    const int64_t id1 = pair_id < 0 ? -1 : pair_id / kPairIdFactor;
+    const bool valid_ids = id2 >= 0 && id1 < kPairIdFactor && id1 != id2;
+    const auto image1 = valid_ids
+                            ? images_.find(static_cast<colmap::image_t>(id1))
+                            : images_.end();
+    const auto image2 = valid_ids
+                            ? images_.find(static_cast<colmap::image_t>(id2))
+                            : images_.end();
+    if (image1 == images_.end() || image2 == images_.end()) {
+      // Pairs with an image that is left out are no damage of their own.
+      if (!valid_ids || !is_known(id1) || !is_known(id2)) {
+        unknown_images.Add("pair id " + std::to_string(pair_id) +
+                           ": image ids " + std::to_string(id1) + " and " +
+                           std::to_string(id2));
+      }
+      continue;
+    }
+    const auto pair_text = [&image1, &image2]() {
+      return "images " + image1->second.Name() + " and " +
+             image2->second.Name();
+    };
+    // The first row of a repeated pair is the one COLMAP reads.
+    if (!first_time(std::min(id1, id2) * kPairIdFactor + std::max(id1, id2))) {
+      duplicate_rows.Add(pair_text());
+      continue;
+    }
 
-    const int config = static_cast<int>(sqlite3_column_int64(row, 4));
+    const int64_t config = sqlite3_column_int64(row, 4);
+    if (config < TwoViewGeometry::UNDEFINED ||
+        config > TwoViewGeometry::MULTIPLE) {
+      unknown_config.Add(pair_text() + ": config " + std::to_string(config));
+      continue;
+    }
     if (config == TwoViewGeometry::UNDEFINED ||
         config == TwoViewGeometry::DEGENERATE ||
         config == TwoViewGeometry::MULTIPLE ||
@@ -423,51 +685,82 @@ Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
       continue;
     }
 
-    const std::string what = "the verified matches of images " +
-                             image1->second.Name() + " and " +
-                             image2->second.Name();
     const int64_t rows = sqlite3_column_int64(row, 1);
     const int64_t cols = sqlite3_column_int64(row, 2);
     const void* blob = sqlite3_column_blob(row, 3);
     const int64_t num_bytes = sqlite3_column_bytes(row, 3);
     if (cols != 2 || blob == nullptr ||
         num_bytes != rows * 2 * static_cast<int64_t>(sizeof(uint32_t))) {
-      return Corrupt(what + " do not have the stored size");
+      return Corrupt("the verified matches of " + pair_text() +
+                     " do not have the stored size");
     }
 
     ImagePair pair;
     pair.image_id1 = image1->first;
     pair.image_id2 = image2->first;
-    pair.config = config;
-    if (!ReadMatrixBlob(row, 5, &pair.F) || !ReadMatrixBlob(row, 6, &pair.E) ||
-        !ReadMatrixBlob(row, 7, &pair.H)) {
-      return Corrupt("the two-view geometry of images " +
-                     image1->second.Name() + " and " + image2->second.Name() +
-                     " has a matrix of the wrong size");
+    pair.config = static_cast<int>(config);
+    bool has_unusable_matrix = false;
+    for (const auto& [col, matrix] :
+         {std::make_pair(5, &pair.F), std::make_pair(6, &pair.E),
+          std::make_pair(7, &pair.H)}) {
+      const MatrixBlob read = ReadMatrixBlob(row, col, matrix);
+      if (read == MatrixBlob::kWrongSize) {
+        return Corrupt("the two-view geometry of " + pair_text() +
+                       " has a matrix of the wrong size");
+      }
+      has_unusable_matrix |= read == MatrixBlob::kUnusable;
     }
+    if (has_unusable_matrix) unusable_matrices.Add(pair_text());
 
-    // Matches may only name keypoints that exist; a stale or foreign
-    // database must not make later stages index out of bounds.
+    // Matches may only name keypoints that exist and have finite
+    // coordinates; a stale or foreign database must not make later stages
+    // index out of bounds, nor bring NaN into the solvers.
     const auto n1_it = num_points2D_.find(pair.image_id1);
     const auto n2_it = num_points2D_.find(pair.image_id2);
     const uint32_t num_points1 =
         n1_it == num_points2D_.end() ? 0 : n1_it->second;
     const uint32_t num_points2 =
         n2_it == num_points2D_.end() ? 0 : n2_it->second;
+    const auto nonfinite1_it = nonfinite_keypoints_.find(pair.image_id1);
+    const auto nonfinite2_it = nonfinite_keypoints_.find(pair.image_id2);
+    NonFiniteKeypoints* nonfinite1 = nonfinite1_it == nonfinite_keypoints_.end()
+                                         ? nullptr
+                                         : &nonfinite1_it->second;
+    NonFiniteKeypoints* nonfinite2 = nonfinite2_it == nonfinite_keypoints_.end()
+                                         ? nullptr
+                                         : &nonfinite2_it->second;
     blob_values.resize(static_cast<size_t>(rows * 2));
     std::memcpy(blob_values.data(), blob, static_cast<size_t>(num_bytes));
     pair.matches.reserve(static_cast<size_t>(rows));
+    size_t num_nonfinite_in_pair = 0;
     for (int64_t i = 0; i < rows; ++i) {
       const uint32_t idx1 = blob_values[2 * i];
       const uint32_t idx2 = blob_values[2 * i + 1];
-      if (idx1 < num_points1 && idx2 < num_points2) {
-        pair.matches.emplace_back(idx1, idx2);
+      if (idx1 >= num_points1 || idx2 >= num_points2) continue;
+      if (nonfinite1 != nullptr || nonfinite2 != nullptr) {
+        const bool nonfinite_in1 =
+            nonfinite1 != nullptr && nonfinite1->is_nonfinite[idx1];
+        const bool nonfinite_in2 =
+            nonfinite2 != nullptr && nonfinite2->is_nonfinite[idx2];
+        if (nonfinite_in1 || nonfinite_in2) {
+          if (nonfinite_in1) ++nonfinite1->num_dropped_matches;
+          if (nonfinite_in2) ++nonfinite2->num_dropped_matches;
+          ++num_nonfinite_in_pair;
+          continue;
+        }
       }
+      pair.matches.emplace_back(idx1, idx2);
     }
-    if (pair.matches.size() < static_cast<size_t>(rows)) {
-      num_dropped_matches += static_cast<size_t>(rows) - pair.matches.size();
-      ++num_pairs_with_dropped;
-      if (pair.matches.size() < static_cast<size_t>(min_num_matches)) continue;
+    num_nonfinite_matches += num_nonfinite_in_pair;
+    const size_t num_out_of_range =
+        static_cast<size_t>(rows) - pair.matches.size() - num_nonfinite_in_pair;
+    if (num_out_of_range > 0) {
+      num_out_of_range_matches += num_out_of_range;
+      ++num_pairs_out_of_range;
+    }
+    if (pair.matches.size() < static_cast<size_t>(min_num_matches)) {
+      too_few_left.Add(pair_text());
+      continue;
     }
 
     const auto raw_it =
@@ -478,16 +771,90 @@ Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
   }
   if (rc != SQLITE_DONE) return StepError("two-view geometries");
 
-  if (num_dropped_matches > 0) {
-    LOG(WARNING) << "Dropped " << num_dropped_matches << " matches in "
-                 << num_pairs_with_dropped << " image pairs of " << path_
+  // One warning per kind of damage: what was dropped, and how much.
+  if (unknown_images.num_pairs > 0) {
+    LOG(WARNING) << "Ignored "
+                 << CountOf(unknown_images.num_pairs, "verified pair") << " in "
+                 << path_
+                 << " that do not name two images of the database (e.g. "
+                 << unknown_images.example << ").";
+  }
+  if (duplicate_rows.num_pairs > 0) {
+    LOG(WARNING) << "Ignored "
+                 << CountOf(duplicate_rows.num_pairs, "repeated row")
+                 << " of two_view_geometries in " << path_ << " (e.g. "
+                 << duplicate_rows.example
+                 << "); the first row of each pair is used, as COLMAP does.";
+  }
+  if (unknown_config.num_pairs > 0) {
+    LOG(WARNING) << "Ignored "
+                 << CountOf(unknown_config.num_pairs, "verified pair") << " in "
+                 << path_
+                 << " whose config is not a COLMAP two-view geometry type "
+                    "(0 to 8; e.g. "
+                 << unknown_config.example << ").";
+  }
+  if (unusable_matrices.num_pairs > 0) {
+    LOG(WARNING) << "Ignored the stored F, E or H of "
+                 << CountOf(unusable_matrices.num_pairs, "verified pair")
+                 << " in " << path_ << " (NULL, empty or not finite; e.g. "
+                 << unusable_matrices.example
+                 << "): their inlier matches are used, and their relative "
+                    "poses estimated from them as for every pair.";
+  }
+  if (num_out_of_range_matches > 0) {
+    LOG(WARNING) << "Dropped "
+                 << CountOf(num_out_of_range_matches, "match", "matches")
+                 << " in " << CountOf(num_pairs_out_of_range, "image pair")
+                 << " of " << path_
                  << " whose keypoint indices are out of range.";
   }
+  size_t num_named = 0;
+  std::vector<colmap::image_t> nonfinite_image_ids;
+  for (const auto& [image_id, nonfinite] : nonfinite_keypoints_) {
+    nonfinite_image_ids.push_back(image_id);
+  }
+  std::sort(nonfinite_image_ids.begin(), nonfinite_image_ids.end());
+  for (const colmap::image_t image_id : nonfinite_image_ids) {
+    if (++num_named > kMaxNamedWarnings) {
+      LOG(WARNING) << "... and "
+                   << nonfinite_image_ids.size() - kMaxNamedWarnings
+                   << " more images with non-finite keypoints ("
+                   << num_nonfinite_matches << " matches dropped in all).";
+      break;
+    }
+    const NonFiniteKeypoints& nonfinite = nonfinite_keypoints_.at(image_id);
+    LOG(WARNING) << "Image " << images_.at(image_id).Name() << " in " << path_
+                 << " has non-finite coordinates (NaN or infinite) in "
+                 << nonfinite.num_keypoints << " of "
+                 << num_points2D_.at(image_id)
+                 << " keypoints: they are not used, nor the "
+                 << CountOf(nonfinite.num_dropped_matches, "verified match",
+                            "verified matches")
+                 << " that use them.";
+  }
+  if (too_few_left.num_pairs > 0) {
+    LOG(WARNING) << "Ignored "
+                 << CountOf(too_few_left.num_pairs, "verified pair") << " in "
+                 << path_ << " left with fewer than " << min_num_matches
+                 << " usable matches (e.g. " << too_few_left.example << ").";
+  }
+
   if (view_graph->NumPairs() == 0) {
-    return Status::Error("The database " + path_ +
-                         " has no verified image pairs with at least " +
-                         std::to_string(min_num_matches) +
-                         " matches: run a matcher first.");
+    const size_t num_unusable = unknown_images.num_pairs +
+                                unknown_config.num_pairs +
+                                too_few_left.num_pairs;
+    const std::string message = "The database " + path_ +
+                                " has no verified image pairs with at least " +
+                                std::to_string(min_num_matches) + " matches";
+    if (num_unusable == 0) {
+      return Status::Error(message + ": run a matcher first.");
+    }
+    return Status::Error(message + " that can be used (" +
+                         (num_unusable == 1
+                              ? std::string("1 pair was")
+                              : std::to_string(num_unusable) + " pairs were") +
+                         " left out as unusable, see the warnings above).");
   }
   return Status::Ok();
 }

@@ -39,8 +39,31 @@ struct DatabaseReaderOptions {
 //    least `min_num_matches` inliers whose config is not UNDEFINED,
 //    DEGENERATE or MULTIPLE (nor WATERMARK when `ignore_watermarks`), with
 //    config, F, E, H (column-major), the inlier matches and the number of raw
-//    matches. Inlier matches with keypoint indices out of range are dropped.
-// Every problem with the file or its content is returned as a one-line error.
+//    matches.
+//
+// Damaged content never reaches the pipeline. What makes the file unreadable
+// (a wrong schema, blobs of the wrong size, an image without its camera, an
+// unknown camera model) is a one-line error. What only spoils a part is left
+// out with one warning per kind that says what and how much, as COLMAP's own
+// tools would treat it:
+//  - a camera with non-finite parameters, a focal length that is not
+//    positive or a principal point farther outside the image than the
+//    image's size: its images are left out (COLMAP's incremental mapper
+//    skips images whose camera has bogus parameters); when that leaves no
+//    image, the error names the camera;
+//  - repeated rows of an id (tables without their primary key): the first
+//    row is used, which is the one COLMAP's Database reads, and so the one
+//    its matchers used;
+//  - keypoints with NaN or infinite coordinates: they keep their index but
+//    no match that uses them is read (one warning per image);
+//  - matches with keypoint indices out of range are dropped;
+//  - pairs that name images not in the database, or whose config is not a
+//    COLMAP TwoViewGeometry type: ignored;
+//  - F, E or H stored as NULL, empty or non-finite: set to zero (not
+//    estimated), the pair's inlier matches are kept;
+//  - pairs left with fewer than `min_num_matches` matches: ignored.
+// A database with fewer than two usable images, or without a usable pair,
+// is an error.
 Status ReadDatabase(const std::string& database_path,
                     const DatabaseReaderOptions& options,
                     colmap::Reconstruction* reconstruction,

@@ -81,6 +81,17 @@ Status VerifyPosesAndCount(const PoseVerificationOptions& options,
                            colmap::Reconstruction* work,
                            const Interrupt& interrupt,
                            GlobalMapperSummary* summary, std::string* counts) {
+  if (work->NumRegImages() <= static_cast<size_t>(options.min_point_support)) {
+    // Each pose is checked against points that min_point_support other
+    // images observe: with fewer images nothing can be checked, and every
+    // image would be left out.
+    LOG(INFO) << "Pose verification skipped: it needs more than "
+              << options.min_point_support << " registered images, and "
+              << work->NumRegImages() << " are registered.";
+    *counts = Counts(
+        {{"images_checked", 0}, {"images_registered", work->NumRegImages()}});
+    return Status::Ok();
+  }
   PoseVerificationSummary verification;
   const Status status =
       VerifyPoses(options, view_graph, work, &verification, interrupt);
@@ -97,6 +108,17 @@ Status VerifyPosesAndCount(const PoseVerificationOptions& options,
         "pose is supported by the structure that the others observe.");
   }
   return Status::Ok();
+}
+
+// The error when fewer images than min_model_size can take part: no model
+// can be kept, so the user learns at once which option decides that.
+Status TooFewImagesForModel(size_t num_images, int min_model_size,
+                            const std::string& which_images) {
+  return Status::Error("Only " + std::to_string(num_images) + " images " +
+                       which_images + ", but models need at least " +
+                       std::to_string(min_model_size) +
+                       " images (GlobalMapper.min_model_size): set it to " +
+                       std::to_string(num_images) + " to reconstruct them.");
 }
 
 }  // namespace
@@ -204,6 +226,10 @@ Status GlobalMapper::Run(const std::string& database_path,
           "reconstruction (the view graph has no connected pair).");
     }
     const size_t num_connected_images = component.size();
+    if (num_connected_images < static_cast<size_t>(options_.min_model_size)) {
+      return TooFewImagesForModel(num_connected_images, options_.min_model_size,
+                                  "are connected by consistent matches");
+    }
     if (num_connected_images < view_graph.ImagesWithValidPairs().size() ||
         num_connected_images < work->NumImages()) {
       LOG(WARNING) << "The view graph is disconnected: "
@@ -227,6 +253,10 @@ Status GlobalMapper::Run(const std::string& database_path,
     const Status status = AverageRotations(options_.rotation_averaging,
                                            &view_graph, work, &num_rejected);
     if (!status.ok()) return status;
+    if (work->NumRegImages() < static_cast<size_t>(options_.min_model_size)) {
+      return TooFewImagesForModel(work->NumRegImages(), options_.min_model_size,
+                                  "have consistent rotations");
+    }
     stage.Finish(Counts({{"pairs_rejected", num_rejected},
                          {"pairs_kept", view_graph.NumValidPairs()},
                          {"images_registered", work->NumRegImages()}}));
@@ -238,8 +268,14 @@ Status GlobalMapper::Run(const std::string& database_path,
   {
     StageTimer stage("Tracks", 4, &summary_, callbacks);
     size_t num_inconsistent = 0;
+    TrackEstablishmentOptions track_options = options_.tracks;
+    if (work->NumRegImages() == 2) {
+      // A two-view model (min_model_size 2): its tracks have two views.
+      track_options.min_num_views_per_track = 2;
+      LOG(INFO) << "Two registered images: tracks of two views are kept.";
+    }
     tracks =
-        EstablishTracks(options_.tracks, view_graph, *work, &num_inconsistent);
+        EstablishTracks(track_options, view_graph, *work, &num_inconsistent);
     if (tracks.NumTracks() == 0) {
       return Status::Error(
           "No feature track is seen in three or more registered images: "
@@ -342,7 +378,8 @@ Status GlobalMapper::Run(const std::string& database_path,
     if (models->empty()) {
       return Status::Error(
           "Nothing was reconstructed: no camera cluster has at least " +
-          std::to_string(options_.min_model_size) + " images.");
+          std::to_string(options_.min_model_size) +
+          " images (GlobalMapper.min_model_size).");
     }
     size_t num_registered = 0;
     for (const auto& model : *models) num_registered += model.NumRegImages();

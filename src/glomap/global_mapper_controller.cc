@@ -28,6 +28,28 @@ int GlobalMapperController::StageIndex() const {
 }
 
 void GlobalMapperController::Run() {
+  // No exception may leave a thread (std::terminate): whatever the pipeline
+  // throws (std::bad_alloc above all) ends the run as an error, without a
+  // partial model in the manager.
+  const size_t num_models_before = reconstruction_manager_->Size();
+  Status status;
+  try {
+    status = RunPipeline();
+  } catch (...) {
+    status = StatusFromCurrentException();
+    while (reconstruction_manager_->Size() > num_models_before) {
+      reconstruction_manager_->Delete(reconstruction_manager_->Size() - 1);
+    }
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    status_ = status;
+    stage_name_ = status.ok() ? "Done" : "";
+  }
+  if (status.ok()) Callback(MODEL_UPDATED_CALLBACK);
+}
+
+Status GlobalMapperController::RunPipeline() {
   // The working model lives in the manager from the start, so that the
   // viewer can render it after global positioning and each BA round.
   const size_t work_idx = reconstruction_manager_->Add();
@@ -65,12 +87,7 @@ void GlobalMapperController::Run() {
       reconstruction_manager_->Get(idx) = std::move(model);
     }
   }
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    status_ = status;
-    stage_name_ = status.ok() ? "Done" : "";
-  }
-  if (status.ok()) Callback(MODEL_UPDATED_CALLBACK);
+  return status;
 }
 
 }  // namespace glomap

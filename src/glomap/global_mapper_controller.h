@@ -28,7 +28,9 @@ class GlobalMapperController : public colmap::Thread {
                          colmap::ReconstructionManager* reconstruction_manager);
 
   // Result of the last run: ok, an error with its one-line message, or
-  // cancelled. Valid once the thread has finished.
+  // cancelled. Valid once the thread has finished. An exception in the
+  // pipeline (e.g. std::bad_alloc) is an error too; it never leaves the
+  // thread.
   Status RunStatus() const;
   const GlobalMapperSummary& Summary() const { return summary_; }
 
@@ -37,6 +39,8 @@ class GlobalMapperController : public colmap::Thread {
 
  private:
   void Run() override;
+  // The pipeline with the working model in the manager; may throw.
+  Status RunPipeline();
 
   const GlobalMapperOptions options_;
   const std::string database_path_;

@@ -1,16 +1,29 @@
-// Runs a loop body on a COLMAP thread pool in contiguous chunks.
+// Runs a loop body on several threads in contiguous chunks.
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
+#include <exception>
+#include <mutex>
+#include <system_error>
+#include <thread>
+#include <vector>
 
 #include "util/threading.h"
 
 namespace glomap {
 
 // Calls fn(i) for every i in [0, n), on `num_threads` threads (-1: all
-// cores). Each i is visited exactly once; the order across chunks is not
-// defined, so `fn` must write only to slot i of its outputs.
+// cores), the calling thread included. Each i is visited exactly once; the
+// order across chunks is not defined, so `fn` must write only to slot i of
+// its outputs. The first exception thrown by `fn` is rethrown here once all
+// threads are done.
+//
+// Not colmap::ThreadPool: its futures swallow a task's exception (the output
+// would be silently incomplete), and its constructor hangs when the system
+// refuses a thread (it destroys a condition variable a started worker waits
+// on). Here a thread that cannot be started only means fewer threads.
 template <typename Fn>
 void ParallelFor(int num_threads, size_t n, const Fn& fn) {
   const int threads = colmap::GetEffectiveNumThreads(num_threads);
@@ -18,17 +31,36 @@ void ParallelFor(int num_threads, size_t n, const Fn& fn) {
     for (size_t i = 0; i < n; ++i) fn(i);
     return;
   }
-  colmap::ThreadPool pool(threads);
   // A few chunks per thread balance uneven work without a task per item.
   const size_t num_chunks = std::min<size_t>(n, 8 * threads);
-  for (size_t chunk = 0; chunk < num_chunks; ++chunk) {
-    pool.AddTask([&fn, n, num_chunks, chunk]() {
-      const size_t begin = n * chunk / num_chunks;
-      const size_t end = n * (chunk + 1) / num_chunks;
-      for (size_t i = begin; i < end; ++i) fn(i);
-    });
+  std::atomic<size_t> next_chunk(0);
+  std::mutex error_mutex;
+  std::exception_ptr error;
+  const auto work = [&]() {
+    for (size_t chunk = next_chunk++; chunk < num_chunks;
+         chunk = next_chunk++) {
+      try {
+        const size_t begin = n * chunk / num_chunks;
+        const size_t end = n * (chunk + 1) / num_chunks;
+        for (size_t i = begin; i < end; ++i) fn(i);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> workers;
+  workers.reserve(threads - 1);
+  for (int t = 1; t < threads; ++t) {
+    try {
+      workers.emplace_back(work);
+    } catch (const std::system_error&) {
+      break;
+    }
   }
-  pool.Wait();
+  work();
+  for (std::thread& worker : workers) worker.join();
+  if (error) std::rethrow_exception(error);
 }
 
 }  // namespace glomap

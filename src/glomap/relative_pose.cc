@@ -17,9 +17,9 @@
 #include "base/pose.h"
 #include "estimators/essential_matrix.h"
 #include "estimators/two_view_geometry.h"
+#include "glomap/parallel_for.h"
 #include "optim/loransac.h"
 #include "util/random.h"
-#include "util/threading.h"
 
 namespace glomap {
 namespace {
@@ -423,26 +423,7 @@ Status EstimateRelativePoses(const RelativePoseOptions& options,
     task.normalized2 = &normalized_points.at(task.pair->image_id2);
   }
 
-  const int num_threads = colmap::GetEffectiveNumThreads(options.num_threads);
-  // Runs fn(i) for i in [0, n) in contiguous chunks on the pool.
-  auto parallel_for = [num_threads](size_t n, const auto& fn) {
-    if (num_threads <= 1 || n < 2) {
-      for (size_t i = 0; i < n; ++i) fn(i);
-      return;
-    }
-    colmap::ThreadPool pool(num_threads);
-    const size_t num_chunks = std::min<size_t>(n, 8 * num_threads);
-    for (size_t chunk = 0; chunk < num_chunks; ++chunk) {
-      pool.AddTask([&fn, n, num_chunks, chunk]() {
-        const size_t begin = n * chunk / num_chunks;
-        const size_t end = n * (chunk + 1) / num_chunks;
-        for (size_t i = begin; i < end; ++i) fn(i);
-      });
-    }
-    pool.Wait();
-  };
-
-  parallel_for(image_ids.size(), [&](size_t i) {
+  ParallelFor(options.num_threads, image_ids.size(), [&](size_t i) {
     const colmap::Image& image = reconstruction.Image(image_ids[i]);
     const colmap::Camera& camera = reconstruction.Camera(image.CameraId());
     std::vector<Eigen::Vector2d>& points = normalized_points.at(image_ids[i]);
@@ -453,8 +434,8 @@ Status EstimateRelativePoses(const RelativePoseOptions& options,
   });
 
   std::vector<char> keep(tasks.size(), 0);
-  parallel_for(tasks.size(),
-               [&](size_t i) { keep[i] = ProcessPair(options, tasks[i]); });
+  ParallelFor(options.num_threads, tasks.size(),
+              [&](size_t i) { keep[i] = ProcessPair(options, tasks[i]); });
 
   for (size_t i = 0; i < tasks.size(); ++i) {
     if (!keep[i]) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <iostream>
+#include <limits>
 #include <unordered_set>
 #include <vector>
 
@@ -27,6 +28,18 @@ colmap::IncrementalTriangulator::Options TriangulatorOptions(
   tri_options.create_max_angle_error = options.create_max_angle_error_deg;
   tri_options.continue_max_angle_error = options.continue_max_angle_error_deg;
   tri_options.min_angle = options.min_angle_deg;
+  // COLMAP's triangulator skips every image whose camera looks bogus (focal
+  // outside [0.1, 10] x the image size, or an extra parameter above 1): the
+  // incremental mapper's guard against building on a failed registration.
+  // Here the cameras come from bundle adjustment over all views, and
+  // skipping them leaves no point at all, which failed the whole run
+  // (dino-363: bundle adjustment of a model built with a 4x wrong focal
+  // gave k1 = 1.54, and "Bundle adjustment needs at least two registered
+  // images with 3D points"). Long lenses exceed the focal ratio of 10 too.
+  // The model's cameras are therefore used as they are.
+  tri_options.min_focal_length_ratio = 0;
+  tri_options.max_focal_length_ratio = std::numeric_limits<double>::max();
+  tri_options.max_extra_param = std::numeric_limits<double>::max();
   return tri_options;
 }
 
@@ -161,8 +174,11 @@ Status Retriangulate(const RetriangulationOptions& options,
   }
   work.SetUp(&graph);
 
-  const colmap::IncrementalTriangulator::Options tri_options =
+  colmap::IncrementalTriangulator::Options tri_options =
       TriangulatorOptions(options);
+  // COLMAP leaves features seen in only two images untriangulated; in a
+  // two-view model (min_model_size 2) there are no others.
+  tri_options.ignore_two_view_tracks = triangulated_ids.size() > 2;
   if (!tri_options.Check()) {
     return Status::Error("Invalid triangulation options.");
   }

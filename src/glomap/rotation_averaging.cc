@@ -618,6 +618,13 @@ Status AverageRotations(const RotationAveragingOptions& options,
       }
     }
     CHECK_EQ(e, problem.edges.size());
+    // Rejection may split this component below the size of another one that
+    // was never solved. Pairs outside the solved images are dropped now, so
+    // that the next round and the final component only hold images with a
+    // rotation from this round (they would be dropped at the end anyway).
+    num_rejected +=
+        view_graph->InvalidatePairsOutside(std::unordered_set<colmap::image_t>(
+            component.begin(), component.end()));
     previous_by_id.clear();
     for (size_t i = 0; i < component.size(); ++i) {
       previous_by_id.emplace(component[i], rotations[i]);

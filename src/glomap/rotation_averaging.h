@@ -45,10 +45,13 @@ struct RotationAveragingOptions {
 //
 // Pairs whose relative rotation disagrees with the result by more than
 // max_rotation_error_deg are invalidated, as are all pairs with an image
-// outside the final component. Images of the final component get their Qvec
-// (normalized, (w, x, y, z)), Tvec = 0 and are registered; all other images
-// are deregistered. The gauge is fixed by giving the smallest image id of the
-// component the identity rotation, so results are deterministic.
+// outside the final component. Each round after the first, and the final
+// component, stay within the images the round before solved, even when
+// rejection leaves another component larger. Images of the final component
+// get their Qvec (normalized, (w, x, y, z)), Tvec = 0 and are registered; all
+// other images are deregistered. The gauge is fixed by giving the smallest
+// image id of the component the identity rotation, so results are
+// deterministic.
 //
 // Returns an error if a pair names an image that is not in the
 // reconstruction, or if fewer than two images remain. num_rejected_pairs

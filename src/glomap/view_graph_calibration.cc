@@ -6,12 +6,24 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iostream>
 #include <map>
 #include <memory>
+#include <unordered_set>
+#include <utility>
 #include <vector>
 
+#include "base/correspondence_graph.h"
+#include "base/database_cache.h"
+#include "base/essential_matrix.h"
+#include "controllers/incremental_mapper.h"
+#include "estimators/essential_matrix.h"
 #include "estimators/two_view_geometry.h"
 #include "glomap/ceres_threads.h"
+#include "optim/loransac.h"
+#include "sfm/incremental_mapper.h"
+#include "util/logging.h"
+#include "util/random.h"
 #include "util/threading.h"
 
 namespace glomap {
@@ -206,11 +218,472 @@ struct PairConstraint {
   KruppaCoefficients coeffs;
 };
 
+// Pairs with fewer matches are not used by the small reconstruction (the
+// incremental mapper's default minimum).
+constexpr size_t kMinNumMatches = 15;
+// A camera's focal is taken from the small reconstruction only if at least
+// this many of its images are registered in it (two views do not determine
+// the focal).
+constexpr size_t kMinNumRegisteredImagesPerCamera = 3;
+// Initial-pair search: attempts per level, and levels of relaxation (each
+// halves the inlier count and triangulation angle required, as COLMAP's
+// mapper does when it finds no initial pair).
+constexpr int kMaxNumInitAttempts = 10;
+constexpr int kNumInitRelaxations = 3;
+// Keypoints per image that the small reconstruction uses at most (those
+// matched in the most of its pairs): a few hundred determine the focal, and
+// the incremental mapper's cost grows with them (fountain-P11, thousands of
+// matched keypoints per image: 21 s with all, 0.5 s with 500).
+constexpr size_t kMaxNumKeypointsPerImage = 500;
+
+// The matches of one pair without out-of-range indices and without a second
+// match of an already matched keypoint (COLMAP's correspondence graph would
+// drop those too, printing one warning per match).
+colmap::FeatureMatches CleanMatches(const colmap::FeatureMatches& matches,
+                                    size_t num_points1, size_t num_points2) {
+  colmap::FeatureMatches clean;
+  clean.reserve(matches.size());
+  std::unordered_set<colmap::point2D_t> used1, used2;
+  for (const colmap::FeatureMatch& match : matches) {
+    if (match.point2D_idx1 >= num_points1 ||
+        match.point2D_idx2 >= num_points2) {
+      continue;
+    }
+    if (!used1.insert(match.point2D_idx1).second) continue;
+    if (!used2.insert(match.point2D_idx2).second) continue;
+    clean.push_back(match);
+  }
+  return clean;
+}
+
+// The image with the most matches over valid pairs (among images of cameras
+// without a prior), followed by its neighbours in decreasing number of
+// matches, `num_images` at most. Ties go to the smaller image id.
+std::vector<colmap::image_t> SelectCalibrationImages(
+    const ViewGraph& view_graph, const colmap::Reconstruction& reconstruction,
+    size_t num_images) {
+  std::map<colmap::image_t, size_t> num_matches;
+  std::map<colmap::image_t, std::vector<std::pair<size_t, colmap::image_t>>>
+      neighbours;
+  for (const auto& [pair_id, pair] : view_graph.Pairs()) {
+    if (!pair.is_valid || pair.matches.size() < kMinNumMatches ||
+        pair.image_id1 == pair.image_id2 ||
+        !reconstruction.ExistsImage(pair.image_id1) ||
+        !reconstruction.ExistsImage(pair.image_id2)) {
+      continue;
+    }
+    num_matches[pair.image_id1] += pair.matches.size();
+    num_matches[pair.image_id2] += pair.matches.size();
+    neighbours[pair.image_id1].emplace_back(pair.matches.size(),
+                                            pair.image_id2);
+    neighbours[pair.image_id2].emplace_back(pair.matches.size(),
+                                            pair.image_id1);
+  }
+  colmap::image_t seed = colmap::kInvalidImageId;
+  for (const auto& [image_id, count] : num_matches) {
+    const colmap::Image& image = reconstruction.Image(image_id);
+    if (!reconstruction.ExistsCamera(image.CameraId()) ||
+        reconstruction.Camera(image.CameraId()).HasPriorFocalLength()) {
+      continue;
+    }
+    if (seed == colmap::kInvalidImageId || count > num_matches.at(seed)) {
+      seed = image_id;
+    }
+  }
+  if (seed == colmap::kInvalidImageId) return {};
+  std::vector<std::pair<size_t, colmap::image_t>>& candidates =
+      neighbours.at(seed);
+  std::sort(
+      candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
+        return a.first != b.first ? a.first > b.first : a.second < b.second;
+      });
+  std::vector<colmap::image_t> image_ids = {seed};
+  for (const auto& [count, image_id] : candidates) {
+    if (image_ids.size() >= num_images) break;
+    image_ids.push_back(image_id);
+  }
+  return image_ids;
+}
+
+// Median angle (deg) between the relative rotations of `small` and those
+// that five-point RANSAC (as the relative-pose stage runs it, without the
+// refinement) estimates from the same matches with the cameras of
+// `reconstruction`, over the pairs of two images registered in `small`;
+// negative without such a pair.
+double MedianRotationBiasDeg(
+    const colmap::Reconstruction& small,
+    const colmap::Reconstruction& reconstruction,
+    const std::vector<std::pair<const ImagePair*, colmap::FeatureMatches>>&
+        matches) {
+  colmap::SetPRNGSeed(0);
+  std::vector<double> angles_deg;
+  for (const auto& [pair, pair_matches] : matches) {
+    if (pair_matches.size() < kMinNumMatches ||
+        !small.IsImageRegistered(pair->image_id1) ||
+        !small.IsImageRegistered(pair->image_id2)) {
+      continue;
+    }
+    const colmap::Image& image1 = reconstruction.Image(pair->image_id1);
+    const colmap::Image& image2 = reconstruction.Image(pair->image_id2);
+    const colmap::Camera& camera1 = reconstruction.Camera(image1.CameraId());
+    const colmap::Camera& camera2 = reconstruction.Camera(image2.CameraId());
+    std::vector<Eigen::Vector2d> points1, points2;
+    for (const colmap::FeatureMatch& match : pair_matches) {
+      points1.push_back(
+          camera1.ImageToWorld(image1.Point2D(match.point2D_idx1).XY()));
+      points2.push_back(
+          camera2.ImageToWorld(image2.Point2D(match.point2D_idx2).XY()));
+    }
+    colmap::RANSACOptions ransac_options;
+    ransac_options.max_error =
+        0.5 * (1 / camera1.MeanFocalLength() + 1 / camera2.MeanFocalLength());
+    colmap::LORANSAC<colmap::EssentialMatrixFivePointEstimator,
+                     colmap::EssentialMatrixFivePointEstimator>
+        ransac(ransac_options);
+    const auto report = ransac.Estimate(points1, points2);
+    if (!report.success) continue;
+    std::vector<Eigen::Vector2d> inliers1, inliers2;
+    for (size_t i = 0; i < points1.size(); ++i) {
+      if (!report.inlier_mask[i]) continue;
+      inliers1.push_back(points1[i]);
+      inliers2.push_back(points2[i]);
+    }
+    Eigen::Matrix3d R;
+    Eigen::Vector3d t;
+    std::vector<Eigen::Vector3d> points3D;
+    colmap::PoseFromEssentialMatrix(report.model, inliers1, inliers2, &R, &t,
+                                    &points3D);
+    const Eigen::Matrix3d R_small =
+        small.Image(pair->image_id2).RotationMatrix() *
+        small.Image(pair->image_id1).RotationMatrix().transpose();
+    const double angle_deg =
+        Eigen::AngleAxisd(R * R_small.transpose()).angle() * 180 / M_PI;
+    if (std::isfinite(angle_deg)) angles_deg.push_back(angle_deg);
+  }
+  if (angles_deg.empty()) return -1;
+  const size_t mid = angles_deg.size() / 2;
+  std::nth_element(angles_deg.begin(), angles_deg.begin() + mid,
+                   angles_deg.end());
+  return angles_deg[mid];
+}
+
+struct SmallReconstructionResult {
+  // Refined focal of every camera without a prior that has at least
+  // kMinNumRegisteredImagesPerCamera registered images in it.
+  std::map<colmap::camera_t, double> focals;
+  // MedianRotationBiasDeg of the cameras on entry.
+  double rotation_bias_deg = -1;
+  size_t num_registered = 0;
+};
+
+// Builds the small reconstruction of `image_ids` with COLMAP's incremental
+// mapper, every camera starting from `initial_cameras`.
+SmallReconstructionResult FocalsFromSmallReconstruction(
+    const ViewGraphCalibrationOptions& options, const ViewGraph& view_graph,
+    const colmap::Reconstruction& reconstruction,
+    const std::map<colmap::camera_t, colmap::Camera>& initial_cameras,
+    const std::vector<colmap::image_t>& image_ids) {
+  // The incremental mapper needs a DatabaseCache; it is filled in memory
+  // from the view graph (as retriangulation does), never from the database.
+  colmap::DatabaseCache cache;
+  const std::unordered_set<colmap::image_t> selected(image_ids.begin(),
+                                                     image_ids.end());
+  for (const colmap::image_t image_id : image_ids) {
+    const colmap::Image& source = reconstruction.Image(image_id);
+    if (!cache.ExistsCamera(source.CameraId())) {
+      const auto initial = initial_cameras.find(source.CameraId());
+      cache.AddCamera(initial != initial_cameras.end()
+                          ? initial->second
+                          : reconstruction.Camera(source.CameraId()));
+    }
+    colmap::Image image;
+    image.SetImageId(image_id);
+    image.SetName(source.Name());
+    image.SetCameraId(source.CameraId());
+    std::vector<Eigen::Vector2d> points2D;
+    points2D.reserve(source.NumPoints2D());
+    for (const colmap::Point2D& point2D : source.Points2D()) {
+      points2D.push_back(point2D.XY());
+    }
+    image.SetPoints2D(points2D);
+    cache.AddImage(std::move(image));  // Also adds it to the graph.
+  }
+  // DatabaseCache only exposes its graph as const; the cache is our own
+  // non-const object, so writing to it through const_cast is well defined.
+  std::vector<std::pair<const ImagePair*, colmap::FeatureMatches>> matches;
+  std::map<colmap::image_t, std::vector<int>> num_pairs_per_keypoint;
+  for (const colmap::image_t image_id : image_ids) {
+    num_pairs_per_keypoint[image_id].assign(cache.Image(image_id).NumPoints2D(),
+                                            0);
+  }
+  for (const auto& [pair_id, pair] : view_graph.Pairs()) {
+    if (!pair.is_valid || pair.matches.size() < kMinNumMatches ||
+        pair.image_id1 == pair.image_id2 ||
+        selected.count(pair.image_id1) == 0 ||
+        selected.count(pair.image_id2) == 0) {
+      continue;
+    }
+    matches.emplace_back(
+        &pair,
+        CleanMatches(pair.matches, cache.Image(pair.image_id1).NumPoints2D(),
+                     cache.Image(pair.image_id2).NumPoints2D()));
+    for (const colmap::FeatureMatch& match : matches.back().second) {
+      ++num_pairs_per_keypoint[pair.image_id1][match.point2D_idx1];
+      ++num_pairs_per_keypoint[pair.image_id2][match.point2D_idx2];
+    }
+  }
+  // The keypoints each image keeps: those matched in the most pairs (ties:
+  // the smaller index).
+  std::map<colmap::image_t, std::vector<bool>> kept;
+  for (auto& [image_id, counts] : num_pairs_per_keypoint) {
+    std::vector<colmap::point2D_t> order(counts.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    const size_t num_kept = std::min(order.size(), kMaxNumKeypointsPerImage);
+    std::partial_sort(
+        order.begin(), order.begin() + num_kept, order.end(),
+        [&counts = counts](colmap::point2D_t a, colmap::point2D_t b) {
+          return counts[a] != counts[b] ? counts[a] > counts[b] : a < b;
+        });
+    std::vector<bool>& image_kept = kept[image_id];
+    image_kept.assign(counts.size(), false);
+    for (size_t i = 0; i < num_kept; ++i) {
+      if (counts[order[i]] > 0) image_kept[order[i]] = true;
+    }
+  }
+  auto& graph =
+      const_cast<colmap::CorrespondenceGraph&>(cache.CorrespondenceGraph());
+  for (auto& [pair, pair_matches] : matches) {
+    const std::vector<bool>& kept1 = kept.at(pair->image_id1);
+    const std::vector<bool>& kept2 = kept.at(pair->image_id2);
+    pair_matches.erase(std::remove_if(pair_matches.begin(), pair_matches.end(),
+                                      [&](const colmap::FeatureMatch& match) {
+                                        return !kept1[match.point2D_idx1] ||
+                                               !kept2[match.point2D_idx2];
+                                      }),
+                       pair_matches.end());
+    if (pair_matches.size() < kMinNumMatches) continue;
+    graph.AddCorrespondences(pair->image_id1, pair->image_id2, pair_matches);
+  }
+  graph.Finalize();
+  if (graph.NumImages() < kMinNumRegisteredImagesPerCamera) return {};
+  for (const colmap::image_t image_id : image_ids) {
+    if (!graph.ExistsImage(image_id)) continue;
+    colmap::Image& image = cache.Image(image_id);
+    image.SetNumObservations(graph.NumObservationsForImage(image_id));
+    image.SetNumCorrespondences(graph.NumCorrespondencesForImage(image_id));
+  }
+
+  // COLMAP's mapper prints a report of every image's pose refinement to
+  // stdout (AbsolutePoseRefinementOptions::print_summary, which its
+  // IncrementalMapper does not expose); the small reconstruction is silent.
+  // No other stage runs while the view graph is calibrated.
+  struct SilenceStdout {
+    SilenceStdout() : saved(std::cout.rdbuf(nullptr)) {}
+    ~SilenceStdout() { std::cout.rdbuf(saved); }
+    std::streambuf* saved;
+  } silence_stdout;
+
+  // COLMAP's mapper defaults, except for the bounds of its bogus-camera test
+  // (the incremental mapper drops images whose focal leaves them), which are
+  // this stage's own bounds on the focal ratio.
+  // One thread and a fixed seed: the same input gives the same focal (the
+  // problems are small, far below the size at which this project's Ceres
+  // solves use more threads, see ceres_threads.h).
+  colmap::SetPRNGSeed(0);
+  colmap::IncrementalMapperOptions mapper_options;
+  mapper_options.num_threads = 1;
+  colmap::IncrementalMapper::Options init_options = mapper_options.Mapper();
+  const colmap::Camera& seed_camera =
+      cache.Camera(cache.Image(image_ids.front()).CameraId());
+  const double seed_focal_ratio =
+      seed_camera.MeanFocalLength() /
+      std::max<double>(1.0,
+                       std::max(seed_camera.Width(), seed_camera.Height()));
+  init_options.min_focal_length_ratio =
+      std::min(init_options.min_focal_length_ratio,
+               options.min_focal_ratio * seed_focal_ratio);
+  init_options.max_focal_length_ratio =
+      std::max(init_options.max_focal_length_ratio,
+               options.max_focal_ratio * seed_focal_ratio);
+  const colmap::IncrementalTriangulator::Options tri_options =
+      mapper_options.Triangulation();
+  colmap::BundleAdjustmentOptions local_ba =
+      mapper_options.LocalBundleAdjustment();
+  colmap::BundleAdjustmentOptions global_ba =
+      mapper_options.GlobalBundleAdjustment();
+  for (colmap::BundleAdjustmentOptions* ba : {&local_ba, &global_ba}) {
+    ba->print_summary = false;
+    ba->solver_options.logging_type = ceres::SILENT;
+    ba->solver_options.num_threads = 1;
+  }
+
+  // Registration of the other images as COLMAP's mapper does it: local
+  // bundle adjustment after each image, global refinement whenever the
+  // model grew by 10%, when no image registers (then once more), and at the
+  // end.
+  auto global_refinement = [&](colmap::IncrementalMapper* mapper,
+                               const colmap::IncrementalMapper::Options& mo) {
+    mapper->CompleteTracks(tri_options);
+    mapper->MergeTracks(tri_options);
+    mapper->Retriangulate(tri_options);
+    for (int i = 0; i < 2; ++i) {
+      mapper->AdjustGlobalBundle(mo, global_ba);
+      mapper->FilterPoints(mo);
+    }
+    mapper->FilterImages(mo);
+  };
+  auto grow = [&](colmap::IncrementalMapper* mapper,
+                  const colmap::IncrementalMapper::Options& mo,
+                  const colmap::Reconstruction& small) {
+    size_t num_images_at_refinement = small.NumRegImages();
+    size_t num_points_at_refinement = small.NumPoints3D();
+    bool refined_after_failure = false;
+    while (true) {
+      bool registered = false;
+      for (const colmap::image_t image_id : mapper->FindNextImages(mo)) {
+        if (!mapper->RegisterNextImage(mo, image_id)) continue;
+        mapper->TriangulateImage(tri_options, image_id);
+        mapper->AdjustLocalBundle(mo, local_ba, tri_options, image_id,
+                                  mapper->GetModifiedPoints3D());
+        mapper->ClearModifiedPoints3D();
+        if (small.NumRegImages() >= 1.1 * num_images_at_refinement ||
+            small.NumPoints3D() >= 1.1 * num_points_at_refinement) {
+          global_refinement(mapper, mo);
+          num_images_at_refinement = small.NumRegImages();
+          num_points_at_refinement = small.NumPoints3D();
+        }
+        registered = true;
+        break;
+      }
+      if (registered) {
+        refined_after_failure = false;
+        continue;
+      }
+      if (refined_after_failure) break;
+      global_refinement(mapper, mo);
+      refined_after_failure = true;
+    }
+    global_refinement(mapper, mo);
+  };
+
+  // Initial pairs as COLMAP's mapper tries them, relaxed when none is found;
+  // a model that stays small (a weak initial pair) is discarded and the next
+  // pair tried. The largest model decides.
+  const size_t enough_images =
+      std::max(kMinNumRegisteredImagesPerCamera, (image_ids.size() + 1) / 2);
+  SmallReconstructionResult result;
+  size_t best_num_images = 0;
+  colmap::IncrementalMapper::Options mo = init_options;
+  for (int level = 0;
+       level < kNumInitRelaxations && best_num_images < enough_images;
+       ++level) {
+    // A new mapper per level, so that pairs tried before are tried again.
+    colmap::IncrementalMapper mapper(&cache);
+    for (int attempt = 0;
+         attempt < kMaxNumInitAttempts && best_num_images < enough_images;
+         ++attempt) {
+      colmap::Reconstruction small;
+      mapper.BeginReconstruction(&small);
+      colmap::image_t image_id1 = colmap::kInvalidImageId;
+      colmap::image_t image_id2 = colmap::kInvalidImageId;
+      const bool found =
+          mapper.FindInitialImagePair(mo, &image_id1, &image_id2);
+      if (found && mapper.RegisterInitialImagePair(mo, image_id1, image_id2)) {
+        mapper.AdjustGlobalBundle(mo, global_ba);
+        mapper.FilterPoints(mo);
+        mapper.FilterImages(mo);
+        if (small.NumRegImages() >= 2 && small.NumPoints3D() > 0) {
+          grow(&mapper, mo, small);
+          VLOG(1) << "View-graph calibration: small reconstruction of "
+                  << small.NumRegImages() << " of " << image_ids.size()
+                  << " images, " << small.NumPoints3D() << " points.";
+          if (small.NumRegImages() > best_num_images) {
+            best_num_images = small.NumRegImages();
+            std::map<colmap::camera_t, size_t> num_registered;
+            for (const colmap::image_t image_id : small.RegImageIds()) {
+              ++num_registered[small.Image(image_id).CameraId()];
+            }
+            result.focals.clear();
+            for (const auto& [camera_id, count] : num_registered) {
+              const colmap::Camera& camera = small.Camera(camera_id);
+              if (count >= kMinNumRegisteredImagesPerCamera &&
+                  !camera.HasPriorFocalLength()) {
+                result.focals[camera_id] = camera.MeanFocalLength();
+              }
+            }
+            result.num_registered = small.NumRegImages();
+            result.rotation_bias_deg =
+                MedianRotationBiasDeg(small, reconstruction, matches);
+          }
+        }
+      }
+      mapper.EndReconstruction(/*discard=*/true);
+      if (!found) break;
+    }
+    mo.init_min_num_inliers /= 2;
+    mo.init_min_tri_angle /= 2;
+  }
+  return result;
+}
+
+// The multi-view step of CalibrateViewGraph: sets the focal of every free
+// camera that the small reconstruction calibrates (within the ratio bounds
+// relative to `initial_cameras`) and returns their ids.
+std::vector<colmap::camera_t> CalibrateFromSmallReconstruction(
+    const ViewGraphCalibrationOptions& options, const ViewGraph& view_graph,
+    const std::map<colmap::camera_t, colmap::Camera>& initial_cameras,
+    colmap::Reconstruction* reconstruction) {
+  if (options.multi_view_num_images <= 0 || initial_cameras.empty()) {
+    return {};
+  }
+  const std::vector<colmap::image_t> image_ids = SelectCalibrationImages(
+      view_graph, *reconstruction,
+      static_cast<size_t>(options.multi_view_num_images));
+  if (image_ids.size() < kMinNumRegisteredImagesPerCamera) return {};
+  const SmallReconstructionResult small = FocalsFromSmallReconstruction(
+      options, view_graph, *reconstruction, initial_cameras, image_ids);
+  if (small.focals.empty()) return {};
+  // The focal matters before bundle adjustment only through the relative
+  // poses: where the current focals give the same relative rotations as the
+  // small reconstruction, up to less than the bias that counts, they stay.
+  if (small.rotation_bias_deg < options.multi_view_min_rotation_bias_deg) {
+    LOG(INFO) << "View-graph calibration: a small reconstruction of "
+              << small.num_registered << " images agrees with the current "
+              << "focal lengths (median relative rotation difference "
+              << small.rotation_bias_deg << " deg); they are kept.";
+    return {};
+  }
+  std::vector<colmap::camera_t> calibrated;
+  for (const auto& [camera_id, focal] : small.focals) {
+    const auto initial = initial_cameras.find(camera_id);
+    if (initial == initial_cameras.end()) continue;
+    const double ratio = focal / initial->second.MeanFocalLength();
+    if (!std::isfinite(ratio) || ratio < options.min_focal_ratio ||
+        ratio > options.max_focal_ratio) {
+      continue;
+    }
+    colmap::Camera& camera = reconstruction->Camera(camera_id);
+    LOG(INFO) << "View-graph calibration: camera " << camera_id << " focal "
+              << focal << " px from a small reconstruction of "
+              << small.num_registered
+              << " images (fundamental matrices: " << camera.MeanFocalLength()
+              << " px, start " << initial->second.MeanFocalLength()
+              << " px; relative rotations differ by " << small.rotation_bias_deg
+              << " deg in the median)";
+    for (const size_t idx : camera.FocalLengthIdxs()) {
+      camera.Params(idx) = focal;
+    }
+    calibrated.push_back(camera_id);
+  }
+  return calibrated;
+}
+
 }  // namespace
 
 bool ViewGraphCalibrationOptions::Check() const {
   return min_focal_ratio > 0 && max_focal_ratio > min_focal_ratio &&
-         max_two_view_error > 0 && loss_scale > 0 && max_num_iterations >= 0;
+         max_two_view_error > 0 && loss_scale > 0 && max_num_iterations >= 0 &&
+         multi_view_num_images >= 0 && multi_view_min_rotation_bias_deg >= 0;
 }
 
 bool FundamentalMatrixFocalResiduals(const Eigen::Matrix3d& F,
@@ -246,6 +719,13 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
   auto camera_is_free = [&](colmap::camera_t camera_id) {
     return !reconstruction->Camera(camera_id).HasPriorFocalLength();
   };
+
+  // The free cameras as they are on entry: the small reconstruction starts
+  // from them, not from the fundamental matrices' estimate.
+  std::map<colmap::camera_t, colmap::Camera> initial_cameras;
+  for (const auto& [camera_id, camera] : reconstruction->Cameras()) {
+    if (camera_is_free(camera_id)) initial_cameras.emplace(camera_id, camera);
+  }
 
   std::vector<PairConstraint> constraints;
   for (auto& [pair_id, pair] : view_graph->Pairs()) {
@@ -296,6 +776,8 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
   }
 
   if (constraints.empty()) {
+    CalibrateFromSmallReconstruction(options, *view_graph, initial_cameras,
+                                     reconstruction);
     return Status::Ok();
   }
 
@@ -382,6 +864,17 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
             << camera.MeanFocalLength() << " -> " << new_focal << " px";
     for (const size_t idx : camera.FocalLengthIdxs()) {
       camera.Params(idx) = new_focal;
+    }
+  }
+
+  // Where the fundamental matrices do not determine the focal, a small
+  // reconstruction does (see the header).
+  for (const colmap::camera_t camera_id : CalibrateFromSmallReconstruction(
+           options, *view_graph, initial_cameras, reconstruction)) {
+    const auto phi = phis.find(camera_id);
+    if (phi != phis.end()) {
+      phi->second = reconstruction->Camera(camera_id).MeanFocalLength() /
+                    reference_focals.at(camera_id);
     }
   }
 
