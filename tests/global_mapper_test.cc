@@ -267,7 +267,7 @@ TEST(GlobalMapper, DatabaseWithoutPairsIsAnError) {
 struct RealCase {
   std::string name;
   size_t num_images;
-  double best_reference_auc3;     // better of the two reference mappers
+  double min_auc3;                // AUC@3 bar, percent
   double best_reference_pos_err;  // mean position error, GT units
   double absolute_max_pos_err;    // when > 0, an absolute bar instead
 };
@@ -281,6 +281,9 @@ TEST_P(GlobalMapperRealData, MatchesReferenceMappers) {
   const RealCase& c = std::get<0>(GetParam());
   const int seed = std::get<1>(GetParam());
   const std::string dataset_dir = datasets + "/" + c.name;
+  if (!std::filesystem::exists(dataset_dir + "/database.db")) {
+    GTEST_SKIP() << c.name << " is not in " << datasets;
+  }
   const std::string database_path = dataset_dir + "/database.db";
   const std::string digest_before = testing::FileDigest(database_path);
 
@@ -306,7 +309,7 @@ TEST_P(GlobalMapperRealData, MatchesReferenceMappers) {
             << evaluation.num_cameras_beyond << std::endl;
   EXPECT_EQ(evaluation.num_registered, static_cast<int>(c.num_images));
   EXPECT_EQ(evaluation.num_cameras_beyond, 0);
-  EXPECT_GE(evaluation.pose_aucs[1], c.best_reference_auc3 - 0.5);
+  EXPECT_GE(evaluation.pose_aucs[1], c.min_auc3);
   if (c.absolute_max_pos_err > 0) {
     EXPECT_LE(evaluation.position_error_mean, c.absolute_max_pos_err);
   } else {
@@ -317,12 +320,15 @@ TEST_P(GlobalMapperRealData, MatchesReferenceMappers) {
 INSTANTIATE_TEST_SUITE_P(
     SharedDatasets, GlobalMapperRealData,
     ::testing::Combine(
-        ::testing::Values(RealCase{"fountain-P11", 11, 88.7, 0.006072, 0},
-                          RealCase{"Herz-Jesus-P8", 8, 90.0, 0.008546, 0},
-                          RealCase{"entry-P10", 10, 88.4, 0.02241, 0},
-                          RealCase{"castle-P19", 19, 78.3, 0.1283, 0},
-                          RealCase{"templeRing", 47, 69.2, 0.001034, 0},
-                          RealCase{"KITTI_sequence_1", 51, 66.2, 0, 0.02}),
+        // AUC@3 bars: the better reference figure minus 0.5; on dino-363
+        // (no upstream figure) the stock mapper's minus 1.
+        ::testing::Values(RealCase{"fountain-P11", 11, 88.7 - 0.5, 0.006072, 0},
+                          RealCase{"Herz-Jesus-P8", 8, 90.0 - 0.5, 0.008546, 0},
+                          RealCase{"entry-P10", 10, 88.4 - 0.5, 0.02241, 0},
+                          RealCase{"castle-P19", 19, 78.3 - 0.5, 0.1283, 0},
+                          RealCase{"templeRing", 47, 69.2 - 0.5, 0.001034, 0},
+                          RealCase{"KITTI_sequence_1", 51, 66.2 - 0.5, 0, 0.02},
+                          RealCase{"dino-363", 363, 70.2 - 1.0, 0.002523, 0}),
         ::testing::Values(0, 1)),
     [](const auto& info) {
       std::string name = std::get<0>(info.param).name;

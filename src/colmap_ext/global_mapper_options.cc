@@ -208,6 +208,10 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Refine focal lengths");
   b.Add("ba_refine_principal_point", &ba.refine_principal_point,
         "Refine principal points");
+  b.Add("ba_min_view_spread_deg_for_principal_point",
+        &ba.min_view_spread_deg_for_principal_point,
+        "Also refine principal points when the viewing directions spread by "
+        "at least this (median angle to the mean axis; 0: never) [deg]");
   b.Add("ba_refine_extra_params", &ba.refine_extra_params,
         "Refine distortion parameters");
   b.Add("ba_max_normalized_reproj_error", &ba.max_normalized_reproj_error,

@@ -422,6 +422,7 @@ bool GlobalBundleAdjustmentOptions::Check() const {
          function_tolerance >= 0 && max_normalized_reproj_error > 0 &&
          min_tri_angle_deg >= 0 && min_changed_tracks_ratio >= 0 &&
          min_changed_tracks_ratio <= 1 &&
+         min_view_spread_deg_for_principal_point >= 0 &&
          (num_threads == -1 || num_threads >= 1);
 }
 

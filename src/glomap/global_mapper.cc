@@ -5,6 +5,7 @@
 #include <sstream>
 #include <unordered_set>
 
+#include "base/pose.h"
 #include "glomap/track_filters.h"
 #include "util/logging.h"
 #include "util/misc.h"
@@ -108,6 +109,28 @@ Status VerifyPosesAndCount(const PoseVerificationOptions& options,
         "pose is supported by the structure that the others observe.");
   }
   return Status::Ok();
+}
+
+// Median angle in degrees between the registered images' optical axes and
+// their mean direction.
+double ViewDirectionSpreadDeg(const colmap::Reconstruction& model) {
+  std::vector<Eigen::Vector3d> axes;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const colmap::image_t image_id : model.RegImageIds()) {
+    axes.push_back(model.Image(image_id).RotationMatrix().row(2).transpose());
+    mean += axes.back();
+  }
+  if (axes.empty() || !(mean.norm() > 0)) return 180;
+  mean.normalize();
+  std::vector<double> angles_deg;
+  for (const Eigen::Vector3d& axis : axes) {
+    angles_deg.push_back(
+        colmap::RadToDeg(std::acos(std::clamp(axis.dot(mean), -1.0, 1.0))));
+  }
+  std::nth_element(angles_deg.begin(),
+                   angles_deg.begin() + angles_deg.size() / 2,
+                   angles_deg.end());
+  return angles_deg[angles_deg.size() / 2];
 }
 
 // The error when fewer images than min_model_size can take part: no model
@@ -318,11 +341,28 @@ Status GlobalMapper::Run(const std::string& database_path,
   }
   if (interrupt.IsStopped()) return Status::Cancelled();
 
+  // Principal points are refined where the viewing directions make them
+  // observable (see min_view_spread_deg_for_principal_point).
+  GlobalBundleAdjustmentOptions ba_options = options_.bundle_adjustment;
+  RetriangulationOptions retriangulation_options = options_.retriangulation;
+  if (ba_options.min_view_spread_deg_for_principal_point > 0 &&
+      !ba_options.refine_principal_point) {
+    const double spread_deg = ViewDirectionSpreadDeg(*work);
+    const bool observable =
+        spread_deg >= ba_options.min_view_spread_deg_for_principal_point;
+    LOG(INFO) << "Viewing directions spread by " << std::fixed
+              << std::setprecision(1) << spread_deg << " deg: principal points "
+              << (observable ? "are refined" : "stay fixed") << ".";
+    ba_options.refine_principal_point = observable;
+    retriangulation_options.bundle_adjustment.refine_principal_point =
+        observable;
+  }
+
   // 8. Rounds of global bundle adjustment with filtering.
   if (!options_.skip_bundle_adjustment) {
     StageTimer stage("Bundle adjustment", 7, &summary_, callbacks);
-    const Status status = RunGlobalBundleAdjustment(
-        options_.bundle_adjustment, work, interrupt, model_changed);
+    const Status status =
+        RunGlobalBundleAdjustment(ba_options, work, interrupt, model_changed);
     if (!status.ok()) return status;
     stage.Finish(Counts({{"images_registered", work->NumRegImages()},
                          {"points", work->NumPoints3D()},
@@ -334,7 +374,7 @@ Status GlobalMapper::Run(const std::string& database_path,
   if (!options_.skip_retriangulation) {
     StageTimer stage("Retriangulation", 8, &summary_, callbacks);
     const Status status =
-        Retriangulate(options_.retriangulation, view_graph, work, interrupt);
+        Retriangulate(retriangulation_options, view_graph, work, interrupt);
     if (!status.ok()) return status;
     stage.Finish(Counts({{"images_registered", work->NumRegImages()},
                          {"points", work->NumPoints3D()},
