@@ -43,26 +43,6 @@ colmap::IncrementalTriangulator::Options TriangulatorOptions(
   return tri_options;
 }
 
-// The matches of one pair without out-of-range indices and without a second
-// match of an already matched keypoint (COLMAP's graph would drop those too,
-// printing one warning per match).
-colmap::FeatureMatches CleanMatches(const colmap::FeatureMatches& matches,
-                                    size_t num_points1, size_t num_points2) {
-  colmap::FeatureMatches clean;
-  clean.reserve(matches.size());
-  std::unordered_set<colmap::point2D_t> used1, used2;
-  for (const colmap::FeatureMatch& match : matches) {
-    if (match.point2D_idx1 >= num_points1 ||
-        match.point2D_idx2 >= num_points2) {
-      continue;
-    }
-    if (!used1.insert(match.point2D_idx1).second) continue;
-    if (!used2.insert(match.point2D_idx2).second) continue;
-    clean.push_back(match);
-  }
-  return clean;
-}
-
 // Same as COLMAP's CompleteAndMergeTracks in exe/sfm.cc; returns the number
 // of observations that changed.
 size_t CompleteAndMergeTracks(

@@ -3,10 +3,28 @@
 #include <algorithm>
 #include <numeric>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "base/database.h"
 
 namespace glomap {
+
+colmap::FeatureMatches CleanMatches(const colmap::FeatureMatches& matches,
+                                    size_t num_points1, size_t num_points2) {
+  colmap::FeatureMatches clean;
+  clean.reserve(matches.size());
+  std::unordered_set<colmap::point2D_t> used1, used2;
+  for (const colmap::FeatureMatch& match : matches) {
+    if (match.point2D_idx1 >= num_points1 ||
+        match.point2D_idx2 >= num_points2) {
+      continue;
+    }
+    if (!used1.insert(match.point2D_idx1).second) continue;
+    if (!used2.insert(match.point2D_idx2).second) continue;
+    clean.push_back(match);
+  }
+  return clean;
+}
 
 ImagePair& ViewGraph::AddPair(ImagePair pair) {
   if (pair.image_id1 > pair.image_id2) {

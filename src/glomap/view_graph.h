@@ -52,6 +52,12 @@ struct ImagePair {
   bool is_valid = true;
 };
 
+// The matches of one pair without out-of-range indices and without a second
+// match of an already matched keypoint, as COLMAP's correspondence graph
+// wants them (it would drop those too, printing one warning per match).
+colmap::FeatureMatches CleanMatches(const colmap::FeatureMatches& matches,
+                                    size_t num_points1, size_t num_points2);
+
 class ViewGraph {
  public:
   std::map<colmap::image_pair_t, ImagePair>& Pairs() { return pairs_; }

@@ -236,26 +236,6 @@ constexpr int kNumInitRelaxations = 3;
 // matched keypoints per image: 21 s with all, 0.5 s with 500).
 constexpr size_t kMaxNumKeypointsPerImage = 500;
 
-// The matches of one pair without out-of-range indices and without a second
-// match of an already matched keypoint (COLMAP's correspondence graph would
-// drop those too, printing one warning per match).
-colmap::FeatureMatches CleanMatches(const colmap::FeatureMatches& matches,
-                                    size_t num_points1, size_t num_points2) {
-  colmap::FeatureMatches clean;
-  clean.reserve(matches.size());
-  std::unordered_set<colmap::point2D_t> used1, used2;
-  for (const colmap::FeatureMatch& match : matches) {
-    if (match.point2D_idx1 >= num_points1 ||
-        match.point2D_idx2 >= num_points2) {
-      continue;
-    }
-    if (!used1.insert(match.point2D_idx1).second) continue;
-    if (!used2.insert(match.point2D_idx2).second) continue;
-    clean.push_back(match);
-  }
-  return clean;
-}
-
 // The image with the most matches over valid pairs (among images of cameras
 // without a prior), followed by its neighbours in decreasing number of
 // matches, `num_images` at most. Ties go to the smaller image id.
