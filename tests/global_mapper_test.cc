@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <tuple>
 
 #include "base/pose.h"
@@ -228,6 +229,87 @@ TEST_P(GlobalMapperWeakGroup, NoCameraIsSilentlyWrong) {
 
 INSTANTIATE_TEST_SUITE_P(Seeds, GlobalMapperWeakGroup,
                          ::testing::Values(0, 1, 2, 3, 4));
+
+// The other shapes that can leave a camera unconstrained (issue 10): pure
+// rotation pairs, cameras matched only across long baselines, two halves
+// joined by one weak pair. None reproduced the failure, and this keeps it
+// so: every registered camera within 1% of the scene size, every image
+// either registered or counted as left out (by pose verification or, for a
+// half that the bridge cannot hold, by the disconnected view graph).
+struct ShapeCase {
+  std::string name;
+  std::function<void(SyntheticSceneOptions*)> apply;
+  int seed;
+};
+
+class GlobalMapperFailureShapes : public ::testing::TestWithParam<ShapeCase> {};
+
+TEST_P(GlobalMapperFailureShapes, NoCameraIsSilentlyWrong) {
+  const ShapeCase& c = GetParam();
+  const std::string dir = testing::CreateTestDir(
+      "global_mapper_shape_" + c.name + "_" + std::to_string(c.seed));
+  SyntheticSceneOptions scene;
+  scene.num_images = 40;
+  scene.max_pairs_per_image = 39;
+  scene.verification = "ground_truth";
+  scene.prior_focal_length = false;
+  scene.wrong_match_ratio = 0.2;
+  scene.random_seed = c.seed;
+  c.apply(&scene);
+  colmap::Reconstruction truth;
+  ASSERT_TRUE(WriteSyntheticScene(scene, dir + "/database.db", &truth).ok());
+
+  colmap::Reconstruction work;
+  std::vector<colmap::Reconstruction> models;
+  GlobalMapper mapper{GlobalMapperOptions()};
+  const Status status = mapper.Run(dir + "/database.db", &work, &models);
+  ASSERT_TRUE(status.ok()) << status.message();
+  ModelEvaluationOptions one_percent;
+  one_percent.max_position_error_fraction_of_scene = 0.01;
+  size_t num_registered = 0;
+  for (const colmap::Reconstruction& model : models) {
+    ModelEvaluation evaluation;
+    ASSERT_TRUE(EvaluateModel(model, truth, one_percent, &evaluation).ok());
+    num_registered += evaluation.num_registered;
+    if (model.NumRegImages() >= 3) {
+      EXPECT_EQ(evaluation.num_cameras_beyond, 0)
+          << c.name << ": " << evaluation.cameras_beyond.front();
+    }
+  }
+  std::cout << c.name << " (seed " << c.seed << "): " << models.size()
+            << " model(s), " << num_registered << " of " << truth.NumRegImages()
+            << " images registered, " << mapper.Summary().num_replaced_images
+            << " re-placed, " << mapper.Summary().num_deregistered_images
+            << " left out" << std::endl;
+  EXPECT_GE(num_registered, truth.NumRegImages() / 2);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Shapes, GlobalMapperFailureShapes,
+    ::testing::Values(
+        ShapeCase{
+            "pure_rotation",
+            [](SyntheticSceneOptions* o) { o->num_pure_rotation_images = 2; },
+            0},
+        ShapeCase{
+            "pure_rotation",
+            [](SyntheticSceneOptions* o) { o->num_pure_rotation_images = 2; },
+            1},
+        ShapeCase{
+            "long_baseline",
+            [](SyntheticSceneOptions* o) { o->num_long_baseline_images = 1; },
+            0},
+        ShapeCase{
+            "long_baseline",
+            [](SyntheticSceneOptions* o) { o->num_long_baseline_images = 1; },
+            1},
+        ShapeCase{"weak_bridge",
+                  [](SyntheticSceneOptions* o) { o->weak_bridge = true; }, 0},
+        ShapeCase{"weak_bridge",
+                  [](SyntheticSceneOptions* o) { o->weak_bridge = true; }, 1}),
+    [](const auto& info) {
+      return info.param.name + "_seed" + std::to_string(info.param.seed);
+    });
 
 TEST(GlobalMapper, SameSeedSameModel) {
   const std::string dir = testing::CreateTestDir("global_mapper_determinism");
