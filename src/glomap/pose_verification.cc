@@ -216,6 +216,13 @@ CorrespondenceSet FindCorrespondences(
     return num_trusted_observers.at(point3D_id) -
            (observed_by_image && !image_is_suspect ? 1 : 0);
   };
+  // The points the image observes, looked up once per linked match below
+  // (instead of scanning each point's track).
+  std::vector<colmap::point3D_t> observed;
+  for (const colmap::Point2D& point2D : image.Points2D()) {
+    if (point2D.HasPoint3D()) observed.push_back(point2D.Point3DId());
+  }
+  std::sort(observed.begin(), observed.end());
   std::vector<Correspondence> raw;
   for (colmap::point2D_t idx = 0; idx < image.NumPoints2D(); ++idx) {
     const colmap::Point2D& point2D = image.Point2D(idx);
@@ -246,8 +253,9 @@ CorrespondenceSet FindCorrespondences(
       const colmap::Point2D& other_point2D = other.Point2D(other_idx);
       if (!other_point2D.HasPoint3D()) continue;
       const colmap::point3D_t point3D_id = other_point2D.Point3DId();
-      if (support(point3D_id, Observes(model, point3D_id, image_id)) >=
-          options.min_point_support) {
+      const bool observed_by_image =
+          std::binary_search(observed.begin(), observed.end(), point3D_id);
+      if (support(point3D_id, observed_by_image) >= options.min_point_support) {
         raw.push_back({own_idx, point3D_id, other_id});
       }
     }

@@ -89,31 +89,19 @@ Status Retriangulate(const RetriangulationOptions& options,
   // together with per-pair statistics that Reconstruction::Load(DatabaseCache)
   // fills (SetObservationAsTriangulated CHECKs against them). We therefore fill
   // a DatabaseCache in memory instead of loading it from the database (which
-  // would open it read-write and use other pairs). DatabaseCache only exposes
-  // its graph as const; the cache is our own non-const object, so writing to
-  // the graph through const_cast is well defined.
+  // would open it read-write and use other pairs).
   colmap::DatabaseCache cache;
   for (const colmap::image_t image_id : registered_ids) {
     const colmap::Image& source = reconstruction->Image(image_id);
-    colmap::Image image;
-    image.SetImageId(image_id);
-    image.SetName(source.Name());
-    image.SetCameraId(source.CameraId());
+    colmap::Image image = KeypointImage(source);
     image.SetQvec(source.Qvec());
     image.SetTvec(source.Tvec());
-    std::vector<Eigen::Vector2d> points2D;
-    points2D.reserve(source.NumPoints2D());
-    for (const colmap::Point2D& point2D : source.Points2D()) {
-      points2D.push_back(point2D.XY());
-    }
-    image.SetPoints2D(points2D);
     if (!cache.ExistsCamera(source.CameraId())) {
       cache.AddCamera(reconstruction->Camera(source.CameraId()));
     }
     cache.AddImage(std::move(image));  // Also adds it to the graph.
   }
-  auto& graph =
-      const_cast<colmap::CorrespondenceGraph&>(cache.CorrespondenceGraph());
+  colmap::CorrespondenceGraph& graph = MutableCorrespondenceGraph(&cache);
   size_t num_pairs = 0;
   for (const auto& [pair_id, pair] : view_graph.Pairs()) {
     if (pair.matches.size() < static_cast<size_t>(options.min_num_matches) ||

@@ -9,6 +9,25 @@
 
 namespace glomap {
 
+colmap::Image KeypointImage(const colmap::Image& source) {
+  colmap::Image image;
+  image.SetImageId(source.ImageId());
+  image.SetName(source.Name());
+  image.SetCameraId(source.CameraId());
+  std::vector<Eigen::Vector2d> points2D;
+  points2D.reserve(source.NumPoints2D());
+  for (const colmap::Point2D& point2D : source.Points2D()) {
+    points2D.push_back(point2D.XY());
+  }
+  image.SetPoints2D(points2D);
+  return image;
+}
+
+colmap::CorrespondenceGraph& MutableCorrespondenceGraph(
+    colmap::DatabaseCache* cache) {
+  return const_cast<colmap::CorrespondenceGraph&>(cache->CorrespondenceGraph());
+}
+
 colmap::FeatureMatches CleanMatches(const colmap::FeatureMatches& matches,
                                     size_t num_points1, size_t num_points2) {
   colmap::FeatureMatches clean;

@@ -9,6 +9,8 @@
 #include <unordered_set>
 #include <vector>
 
+#include "base/database_cache.h"
+#include "base/image.h"
 #include "feature/types.h"
 #include "util/types.h"
 
@@ -57,6 +59,18 @@ struct ImagePair {
 // wants them (it would drop those too, printing one warning per match).
 colmap::FeatureMatches CleanMatches(const colmap::FeatureMatches& matches,
                                     size_t num_points1, size_t num_points2);
+
+// A copy of `source` as COLMAP's DatabaseCache holds images read from a
+// database: id, name, camera and keypoints (no pose, no 3D points), for the
+// in-memory caches that retriangulation and calibration build from the view
+// graph instead of opening the database.
+colmap::Image KeypointImage(const colmap::Image& source);
+
+// The correspondence graph of a DatabaseCache that we fill ourselves. COLMAP
+// only exposes it as const; the cache is our own non-const object, so
+// writing to it through const_cast is well defined.
+colmap::CorrespondenceGraph& MutableCorrespondenceGraph(
+    colmap::DatabaseCache* cache);
 
 class ViewGraph {
  public:

@@ -376,20 +376,8 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
                           ? initial->second
                           : reconstruction.Camera(source.CameraId()));
     }
-    colmap::Image image;
-    image.SetImageId(image_id);
-    image.SetName(source.Name());
-    image.SetCameraId(source.CameraId());
-    std::vector<Eigen::Vector2d> points2D;
-    points2D.reserve(source.NumPoints2D());
-    for (const colmap::Point2D& point2D : source.Points2D()) {
-      points2D.push_back(point2D.XY());
-    }
-    image.SetPoints2D(points2D);
-    cache.AddImage(std::move(image));  // Also adds it to the graph.
+    cache.AddImage(KeypointImage(source));  // Also adds it to the graph.
   }
-  // DatabaseCache only exposes its graph as const; the cache is our own
-  // non-const object, so writing to it through const_cast is well defined.
   std::vector<std::pair<const ImagePair*, colmap::FeatureMatches>> matches;
   std::map<colmap::image_t, std::vector<int>> num_pairs_per_keypoint;
   for (const colmap::image_t image_id : image_ids) {
@@ -430,8 +418,7 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
       if (counts[order[i]] > 0) image_kept[order[i]] = true;
     }
   }
-  auto& graph =
-      const_cast<colmap::CorrespondenceGraph&>(cache.CorrespondenceGraph());
+  colmap::CorrespondenceGraph& graph = MutableCorrespondenceGraph(&cache);
   for (auto& [pair, pair_matches] : matches) {
     const std::vector<bool>& kept1 = kept.at(pair->image_id1);
     const std::vector<bool>& kept2 = kept.at(pair->image_id2);
