@@ -8,7 +8,10 @@ JOBS="${JOBS:-$(nproc)}"
 
 "${ROOT_DIR}/scripts/setup.sh" "${BUILD_DIR}"
 if [[ ! -f "${BUILD_DIR}/build.ninja" ]]; then
-  cmake -S "${ROOT_DIR}" -B "${BUILD_DIR}" -G Ninja -DCMAKE_BUILD_TYPE=Release
+  # GLOMAP_CMAKE_ARGS: extra configure arguments (scripts/test.sh --sanitize).
+  read -r -a extra_args <<< "${GLOMAP_CMAKE_ARGS:-}"
+  cmake -S "${ROOT_DIR}" -B "${BUILD_DIR}" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+    "${extra_args[@]}"
 fi
 echo "[build] building in ${BUILD_DIR} with ${JOBS} jobs"
 cmake --build "${BUILD_DIR}" -- -j"${JOBS}"

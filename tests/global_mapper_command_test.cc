@@ -2,14 +2,20 @@
 // on bad input, that it never changes the database, and that stock COLMAP
 // 3.8 reads what it writes.
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sqlite3.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <map>
 #include <sstream>
+#include <thread>
 #include <vector>
 
 #include "base/reconstruction.h"
@@ -242,6 +248,112 @@ TEST(GlobalMapperCommand, RerunRemovesStaleModels) {
     EXPECT_EQ(entry.path().filename().string().rfind(".global_mapper_tmp", 0),
               std::string::npos)
         << entry.path();
+  }
+}
+
+// Every file and folder under `dir` with a digest of its content ("" for a
+// folder); empty if `dir` does not exist.
+std::map<std::string, std::string> Snapshot(const std::string& dir) {
+  std::map<std::string, std::string> files;
+  if (!fs::exists(dir)) return files;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    files[fs::relative(entry.path(), dir).string()] =
+        entry.is_directory() ? "" : FileDigest(entry.path().string());
+  }
+  return files;
+}
+
+// SIGINT (Ctrl-C) and SIGTERM during each stage: the command stops within a
+// second with exit code 128 + signal and one error line, and the output
+// folder is exactly as it was (an earlier model stays; a folder that did not
+// exist is not created).
+TEST(GlobalMapperCommand, SignalStopsEveryStageWithinASecond) {
+  SyntheticSceneOptions options;
+  options.num_images = 40;
+  options.prior_focal_length = false;  // View-graph calibration runs.
+  options.wrong_match_ratio = 0.3;
+  const Project project = MakeProject("command_signals", options);
+  // An earlier run's model (its content does not matter here).
+  const std::string existing_output = project.dir + "/sparse";
+  fs::create_directories(existing_output + "/0");
+  for (const char* file :
+       {"cameras.bin", "images.bin", "points3D.bin", "project.ini"}) {
+    std::ofstream(existing_output + "/0/" + file) << "earlier model " << file;
+  }
+  const std::map<std::string, std::string> before = Snapshot(existing_output);
+  const std::string missing_output = project.dir + "/new/sparse";
+
+  const char* stages[] = {"Database",
+                          "View graph calibration",
+                          "Relative poses",
+                          "Rotation averaging",
+                          "Tracks",
+                          "Global positioning",
+                          "Pose verification",
+                          "Bundle adjustment",
+                          "Retriangulation",
+                          "Final pose verification",
+                          "Camera clustering"};
+  int run = 0;
+  for (const char* stage : stages) {
+    const int signal = run % 2 == 0 ? SIGINT : SIGTERM;
+    const std::string& output_path =
+        run % 2 == 0 ? existing_output : missing_output;
+    ++run;
+    SCOPED_TRACE(std::string(stage) +
+                 (signal == SIGINT ? ", SIGINT" : ", SIGTERM"));
+    int pipe_fds[2];
+    ASSERT_EQ(pipe(pipe_fds), 0);
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      close(pipe_fds[0]);
+      dup2(pipe_fds[1], STDOUT_FILENO);
+      dup2(pipe_fds[1], STDERR_FILENO);
+      const std::string exe = ColmapExecutable();
+      execl(exe.c_str(), exe.c_str(), "global_mapper", "--database_path",
+            project.database_path.c_str(), "--image_path",
+            project.image_path.c_str(), "--output_path", output_path.c_str(),
+            static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    close(pipe_fds[1]);
+    // Reads the log as it is written; when the stage begins, the run is
+    // frozen (SIGSTOP) so that the signal lands in that stage however short
+    // it is, and the time counts from when it runs again.
+    const std::string begin_line = std::string("Stage ") + stage + " ...";
+    std::string text;
+    char buffer[4096];
+    ssize_t n;
+    bool begun = false;
+    auto signalled = std::chrono::steady_clock::now();
+    while ((n = read(pipe_fds[0], buffer, sizeof(buffer))) > 0) {
+      text.append(buffer, n);
+      if (!begun && text.find(begin_line) != std::string::npos) {
+        begun = true;
+        kill(pid, SIGSTOP);
+        kill(pid, signal);
+        signalled = std::chrono::steady_clock::now();
+        kill(pid, SIGCONT);
+      }
+    }
+    close(pipe_fds[0]);
+    int status = 0;
+    ASSERT_EQ(waitpid(pid, &status, 0), pid);
+    const double stop_ms = std::chrono::duration<double, std::milli>(
+                               std::chrono::steady_clock::now() - signalled)
+                               .count();
+    ASSERT_TRUE(begun) << "The run ended before stage " << stage << ":\n"
+                       << text;
+    printf("%s: stopped %.0f ms after the signal\n", stage, stop_ms);
+    EXPECT_LT(stop_ms, 1000.0);
+    ASSERT_TRUE(WIFEXITED(status)) << text;
+    EXPECT_EQ(WEXITSTATUS(status), 128 + signal) << text;
+    EXPECT_NE(text.find("ERROR: Interrupted by"), std::string::npos) << text;
+    EXPECT_EQ(text.find("Model 0:"), std::string::npos) << text;
+    EXPECT_EQ(Snapshot(existing_output), before);
+    EXPECT_FALSE(fs::exists(missing_output));
+    EXPECT_FALSE(fs::exists(project.dir + "/new")) << "made by the run";
   }
 }
 

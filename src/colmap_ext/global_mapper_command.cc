@@ -3,15 +3,23 @@
 // GlobalMapperController (the same thread the GUI runs) and writes one binary
 // model per camera cluster to OUTPUT/0, OUTPUT/1, ..., largest first, each
 // atomically (written to a temporary folder, then renamed into place).
+#include <pthread.h>
+#include <signal.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
 #include <iostream>
+#include <memory>
+#include <mutex>
 #include <system_error>
+#include <thread>
 
 #include "base/reconstruction_manager.h"
 #include "colmap_ext/commands.h"
@@ -26,9 +34,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-int Fail(const std::string& message) {
+int Fail(const std::string& message, int exit_code = EXIT_FAILURE) {
   std::cerr << "ERROR: " << message << std::endl;
-  return EXIT_FAILURE;
+  return exit_code;
 }
 
 // Value of `--name value` in argv, or "" (used before OptionManager::Parse,
@@ -69,21 +77,34 @@ std::string CheckInputPaths(const std::string& database_path,
   return "";
 }
 
-// Creates the output folder (and its parents) if needed and checks that we
-// can write into it.
-std::string PrepareOutputPath(const std::string& output_path) {
+// Checks before the run that the output folder can be written: the folder
+// itself when it exists, else the nearest folder above it that exists (the
+// output folder is created only when the models are written, so that an
+// interrupted run leaves no trace). Returns "" if fine.
+std::string CheckOutputPath(const std::string& output_path) {
   std::error_code error;
   if (output_path.empty()) return "No output path given (--output_path).";
-  if (fs::exists(output_path, error) && !fs::is_directory(output_path, error)) {
-    return "Output path " + output_path + " exists and is not a folder.";
+  if (fs::exists(output_path, error)) {
+    if (!fs::is_directory(output_path, error)) {
+      return "Output path " + output_path + " exists and is not a folder.";
+    }
+    if (access(output_path.c_str(), W_OK) != 0) {
+      return "Output folder " + output_path + " is not writable.";
+    }
+    return "";
   }
-  fs::create_directories(output_path, error);
-  if (error || !fs::is_directory(output_path)) {
-    return "Cannot create the output folder " + output_path + " (" +
-           (error ? error.message() : std::string("unknown error")) + ").";
+  fs::path parent = fs::absolute(output_path, error).parent_path();
+  while (!parent.empty() && !fs::exists(parent, error)) {
+    if (parent == parent.parent_path()) break;
+    parent = parent.parent_path();
   }
-  if (access(output_path.c_str(), W_OK) != 0) {
-    return "Output folder " + output_path + " is not writable.";
+  if (!fs::is_directory(parent, error)) {
+    return "Cannot create the output folder " + output_path + ": " +
+           parent.string() + " is not a folder.";
+  }
+  if (access(parent.c_str(), W_OK) != 0) {
+    return "Cannot create the output folder " + output_path + ": " +
+           parent.string() + " is not writable.";
   }
   return "";
 }
@@ -159,53 +180,188 @@ bool IsNumberedModelDir(const fs::path& dir) {
   return false;
 }
 
+// What this run has put into the output folder, so that an interrupt can
+// take it out again. `mutex` is held while a model is written and while the
+// new models are swapped in, so that an interrupt never cuts either short.
+struct OutputGuard {
+  std::mutex mutex;
+  fs::path temp_dir;            // This run's temporary folder, if made.
+  fs::path created_output_dir;  // The output folder, if this run made it.
+  bool committed = false;       // The new models are in place.
+
+  // Removes what this run wrote (call with `mutex` held).
+  void Undo() {
+    std::error_code error;
+    if (!temp_dir.empty()) fs::remove_all(temp_dir, error);
+    if (!created_output_dir.empty()) fs::remove(created_output_dir, error);
+  }
+};
+
+// SIGINT (Ctrl-C) and SIGTERM stop the run within a second and leave the
+// output folder as it was. Both signals are blocked in every thread (threads
+// inherit the mask of the thread that starts them, so the watcher is made
+// before any other thread) and received by one watcher thread, which asks the
+// pipeline to stop; the pipeline checks between its steps and stops within
+// milliseconds. A step that does not return within `kStopDeadline` is not
+// waited for: the watcher takes out what this run wrote and ends the process.
+// Writing a model and swapping the new models in are never cut short; a signal
+// that arrives once the new models are in place lets the run finish.
+class SignalWatcher {
+ public:
+  static constexpr std::chrono::milliseconds kStopDeadline{700};
+
+  explicit SignalWatcher(OutputGuard* output) : output_(output) {
+    sigemptyset(&signals_);
+    sigaddset(&signals_, SIGINT);
+    sigaddset(&signals_, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &signals_, &old_mask_);
+    thread_ = std::thread(&SignalWatcher::Watch, this);
+  }
+
+  ~SignalWatcher() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      finished_ = true;
+    }
+    finished_changed_.notify_all();
+    thread_.join();
+    pthread_sigmask(SIG_SETMASK, &old_mask_, nullptr);
+  }
+
+  // What the watcher calls on a signal (the controller's Stop); unset it
+  // before the controller goes away.
+  void SetStop(std::function<void()> stop) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = std::move(stop);
+  }
+
+  // The signal received (SIGINT or SIGTERM), or 0.
+  int Signal() const { return signal_; }
+
+ private:
+  void Watch() {
+    const timespec poll_interval = {0, 50 * 1000 * 1000};
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!finished_) {
+      lock.unlock();
+      const int signal = sigtimedwait(&signals_, nullptr, &poll_interval);
+      lock.lock();
+      if (signal != SIGINT && signal != SIGTERM) continue;
+      signal_ = signal;
+      std::fprintf(stderr, "%s received: stopping the run.\n",
+                   signal == SIGINT ? "SIGINT" : "SIGTERM");
+      if (stop_) stop_();
+      if (finished_changed_.wait_for(lock, kStopDeadline,
+                                     [this]() { return finished_; })) {
+        return;
+      }
+      std::lock_guard<std::mutex> output_lock(output_->mutex);
+      if (output_->committed) return;
+      output_->Undo();
+      std::fprintf(stderr,
+                   "ERROR: Interrupted by %s; the output folder was left as "
+                   "it was.\n",
+                   signal == SIGINT ? "SIGINT" : "SIGTERM");
+      std::fflush(stderr);
+      std::_Exit(128 + signal);
+    }
+  }
+
+  OutputGuard* output_;
+  sigset_t signals_;
+  sigset_t old_mask_;
+  std::atomic<int> signal_{0};
+  std::mutex mutex_;
+  std::condition_variable finished_changed_;
+  bool finished_ = false;
+  std::function<void()> stop_;
+  std::thread thread_;
+};
+
+std::string InterruptedMessage(int signal) {
+  return std::string("Interrupted by ") +
+         (signal == SIGINT ? "SIGINT" : "SIGTERM") +
+         "; the output folder was left as it was.";
+}
+
 // Writes each model to OUTPUT/<k> so that a good model is never replaced by a
 // half-written one: everything is written to a temporary folder inside
 // OUTPUT first and checked, then each model folder is swapped in with
 // rename(2). Model folders OUTPUT/<k> of an earlier run with more models are
-// removed, so that OUTPUT holds exactly this run's models.
+// removed, so that OUTPUT holds exactly this run's models. On an error or an
+// interrupt (`signal` set), OUTPUT is left as it was.
 std::string WriteModelsAtomically(const ReconstructionManager& models,
                                   const std::string& output_path,
-                                  const OptionManager& options) {
+                                  const OptionManager& options,
+                                  const SignalWatcher& signals,
+                                  OutputGuard* guard) {
   std::error_code error;
   const fs::path temp_dir = fs::path(output_path) /
                             (".global_mapper_tmp_" + std::to_string(getpid()));
-  fs::remove_all(temp_dir, error);
-  if (!fs::create_directories(temp_dir, error)) {
-    return "Cannot write into " + output_path + ": " + error.message();
-  }
   try {
+    {
+      std::lock_guard<std::mutex> lock(guard->mutex);
+      if (signals.Signal() != 0) return InterruptedMessage(signals.Signal());
+      if (!fs::exists(output_path)) {
+        fs::create_directories(output_path, error);
+        if (error) {
+          return "Cannot create the output folder " + output_path + ": " +
+                 error.message();
+        }
+        guard->created_output_dir = output_path;
+      }
+      fs::remove_all(temp_dir, error);
+      if (!fs::create_directory(temp_dir, error)) {
+        guard->Undo();
+        return "Cannot write into " + output_path + ": " + error.message();
+      }
+      guard->temp_dir = temp_dir;
+    }
     for (size_t k = 0; k < models.Size(); ++k) {
+      std::lock_guard<std::mutex> lock(guard->mutex);
+      if (signals.Signal() != 0) {
+        guard->Undo();
+        return InterruptedMessage(signals.Signal());
+      }
       const fs::path model_dir = temp_dir / std::to_string(k);
-      fs::create_directories(model_dir);
+      fs::create_directory(model_dir);
       models.Get(k).WriteBinary(model_dir.string());
       options.Write((model_dir / "project.ini").string());
       const std::string incomplete =
           CheckWrittenModel(models.Get(k), model_dir);
       if (!incomplete.empty()) {
-        fs::remove_all(temp_dir, error);
+        guard->Undo();
         return "Writing model " + std::to_string(k) + " failed: " + incomplete +
                " Nothing in " + output_path + " was changed.";
       }
     }
-    for (size_t k = 0; k < models.Size(); ++k) {
-      const fs::path final_dir = fs::path(output_path) / std::to_string(k);
-      const fs::path old_dir = temp_dir / ("old_" + std::to_string(k));
-      if (fs::exists(final_dir)) fs::rename(final_dir, old_dir);
-      fs::rename(temp_dir / std::to_string(k), final_dir);
-    }
-    for (const fs::directory_entry& entry :
-         fs::directory_iterator(output_path)) {
-      const std::string name = entry.path().filename().string();
-      if (IsNumberedModelDir(entry.path()) &&
-          std::stoull(name.substr(0, 18)) >= models.Size()) {
-        fs::rename(entry.path(), temp_dir / ("stale_" + name));
-        std::cerr << "Removed " << entry.path().string()
-                  << ": a model of an earlier run." << std::endl;
+    {
+      std::lock_guard<std::mutex> lock(guard->mutex);
+      if (signals.Signal() != 0) {
+        guard->Undo();
+        return InterruptedMessage(signals.Signal());
       }
+      for (size_t k = 0; k < models.Size(); ++k) {
+        const fs::path final_dir = fs::path(output_path) / std::to_string(k);
+        const fs::path old_dir = temp_dir / ("old_" + std::to_string(k));
+        if (fs::exists(final_dir)) fs::rename(final_dir, old_dir);
+        fs::rename(temp_dir / std::to_string(k), final_dir);
+      }
+      for (const fs::directory_entry& entry :
+           fs::directory_iterator(output_path)) {
+        const std::string name = entry.path().filename().string();
+        if (IsNumberedModelDir(entry.path()) &&
+            std::stoull(name.substr(0, 18)) >= models.Size()) {
+          fs::rename(entry.path(), temp_dir / ("stale_" + name));
+          std::cerr << "Removed " << entry.path().string()
+                    << ": a model of an earlier run." << std::endl;
+        }
+      }
+      guard->committed = true;
     }
   } catch (const std::exception& e) {
-    fs::remove_all(temp_dir, error);
+    std::lock_guard<std::mutex> lock(guard->mutex);
+    if (!guard->committed) guard->Undo();
     return std::string("Writing the model failed: ") + e.what();
   }
   fs::remove_all(temp_dir, error);
@@ -234,7 +390,8 @@ std::string WriteModelsAtomically(const ReconstructionManager& models,
   std::_Exit(EXIT_FAILURE);
 }
 
-int RunGlobalMapperOrThrow(int argc, char** argv) {
+int RunGlobalMapperOrThrow(int argc, char** argv, SignalWatcher& signals,
+                           OutputGuard* output_guard) {
   glomap::GlobalMapperOptions mapper_options;
   std::string output_path;
   std::string image_list_path;
@@ -315,24 +472,37 @@ int RunGlobalMapperOrThrow(int argc, char** argv) {
     return EXIT_FAILURE;  // Check() said which option is wrong.
   }
   {
-    const std::string error = PrepareOutputPath(output_path);
+    const std::string error = CheckOutputPath(output_path);
     if (!error.empty()) return Fail(error);
   }
 
   ReconstructionManager reconstruction_manager;
   glomap::GlobalMapperController controller(
       mapper_options, *options.database_path, &reconstruction_manager);
-  controller.Start();
-  controller.Wait();
+  {
+    signals.SetStop([&controller]() { controller.Stop(); });
+    // Unbinds before the controller goes, whichever way this block is left.
+    const std::unique_ptr<SignalWatcher, void (*)(SignalWatcher*)> unbind(
+        &signals, [](SignalWatcher* watcher) { watcher->SetStop(nullptr); });
+    controller.Start();
+    controller.Wait();
+  }
+  if (signals.Signal() != 0) {
+    return Fail(InterruptedMessage(signals.Signal()), 128 + signals.Signal());
+  }
 
   const glomap::Status status = controller.RunStatus();
   if (!status.ok()) return Fail(status.message());
   if (reconstruction_manager.Size() == 0) {
     return Fail("Nothing was reconstructed.");
   }
-  const std::string error =
-      WriteModelsAtomically(reconstruction_manager, output_path, options);
-  if (!error.empty()) return Fail(error);
+  const std::string error = WriteModelsAtomically(
+      reconstruction_manager, output_path, options, signals, output_guard);
+  if (!error.empty()) {
+    return Fail(error, signals.Signal() != 0 && !output_guard->committed
+                           ? 128 + signals.Signal()
+                           : EXIT_FAILURE);
+  }
   for (size_t k = 0; k < reconstruction_manager.Size(); ++k) {
     const auto& model = reconstruction_manager.Get(k);
     std::cout << "Model " << k << ": " << model.NumRegImages() << " images, "
@@ -349,7 +519,9 @@ int RunGlobalMapper(int argc, char** argv) {
   // The pipeline thread reports its own exceptions as a status; this catches
   // those of the command itself (options, paths, writing the models).
   try {
-    return RunGlobalMapperOrThrow(argc, argv);
+    OutputGuard output_guard;
+    SignalWatcher signals(&output_guard);
+    return RunGlobalMapperOrThrow(argc, argv, signals, &output_guard);
   } catch (...) {
     return Fail(glomap::StatusFromCurrentException().message());
   }

@@ -226,8 +226,9 @@ Status GlobalMapper::Run(const std::string& database_path,
   if (!options_.skip_view_graph_calibration) {
     StageTimer stage("View graph calibration", 1, &summary_, callbacks);
     size_t num_invalidated = 0;
-    const Status status = CalibrateViewGraph(
-        options_.view_graph_calibration, work, &view_graph, &num_invalidated);
+    const Status status =
+        CalibrateViewGraph(options_.view_graph_calibration, work, &view_graph,
+                           &num_invalidated, interrupt);
     if (!status.ok()) return status;
     stage.Finish(Counts({{"pairs_rejected", num_invalidated},
                          {"pairs_kept", view_graph.NumValidPairs()}}));
@@ -238,8 +239,9 @@ Status GlobalMapper::Run(const std::string& database_path,
   {
     StageTimer stage("Relative poses", 2, &summary_, callbacks);
     size_t num_invalidated = 0;
-    const Status status = EstimateRelativePoses(options_.relative_pose, *work,
-                                                &view_graph, &num_invalidated);
+    const Status status =
+        EstimateRelativePoses(options_.relative_pose, *work, &view_graph,
+                              &num_invalidated, interrupt);
     if (!status.ok()) return status;
     const std::vector<colmap::image_t> component =
         view_graph.LargestConnectedComponent();
@@ -273,8 +275,9 @@ Status GlobalMapper::Run(const std::string& database_path,
   {
     StageTimer stage("Rotation averaging", 3, &summary_, callbacks);
     size_t num_rejected = 0;
-    const Status status = AverageRotations(options_.rotation_averaging,
-                                           &view_graph, work, &num_rejected);
+    const Status status =
+        AverageRotations(options_.rotation_averaging, &view_graph, work,
+                         &num_rejected, interrupt);
     if (!status.ok()) return status;
     if (work->NumRegImages() < static_cast<size_t>(options_.min_model_size)) {
       return TooFewImagesForModel(work->NumRegImages(), options_.min_model_size,

@@ -370,7 +370,8 @@ bool RelativePoseOptions::Check() const {
 Status EstimateRelativePoses(const RelativePoseOptions& options,
                              const colmap::Reconstruction& reconstruction,
                              ViewGraph* view_graph,
-                             size_t* num_invalidated_pairs) {
+                             size_t* num_invalidated_pairs,
+                             const Interrupt& interrupt) {
   if (num_invalidated_pairs != nullptr) {
     *num_invalidated_pairs = 0;
   }
@@ -433,9 +434,12 @@ Status EstimateRelativePoses(const RelativePoseOptions& options,
     }
   });
 
+  // A stop skips the remaining pairs.
   std::vector<char> keep(tasks.size(), 0);
-  ParallelFor(options.num_threads, tasks.size(),
-              [&](size_t i) { keep[i] = ProcessPair(options, tasks[i]); });
+  ParallelFor(options.num_threads, tasks.size(), [&](size_t i) {
+    if (!interrupt.IsStopped()) keep[i] = ProcessPair(options, tasks[i]);
+  });
+  if (interrupt.IsStopped()) return Status::Cancelled();
 
   for (size_t i = 0; i < tasks.size(); ++i) {
     if (!keep[i]) {

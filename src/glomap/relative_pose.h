@@ -68,10 +68,12 @@ struct RelativePoseOptions {
 // invalidates pairs whose estimation fails or whose re-scored inliers are too
 // few (count or ratio); their number goes to `num_invalidated_pairs` when not
 // null. Pairs whose images or cameras are missing from `reconstruction` are
-// invalidated too.
+// invalidated too. Returns Cancelled when `interrupt` fires; the view graph
+// then holds some pairs' new poses and must not be used.
 Status EstimateRelativePoses(const RelativePoseOptions& options,
                              const colmap::Reconstruction& reconstruction,
                              ViewGraph* view_graph,
-                             size_t* num_invalidated_pairs = nullptr);
+                             size_t* num_invalidated_pairs = nullptr,
+                             const Interrupt& interrupt = {});
 
 }  // namespace glomap

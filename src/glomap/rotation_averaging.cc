@@ -378,7 +378,8 @@ bool SolveGroupL1(const std::vector<Edge>& edges, const Eigen::MatrixX3d& b,
 // the inliers, then Geman-McClure IRLS for accuracy.
 Status SolveRotations(const RotationAveragingOptions& options,
                       const Problem& problem,
-                      std::vector<Eigen::Quaterniond>* rotations) {
+                      std::vector<Eigen::Quaterniond>* rotations,
+                      const Interrupt& interrupt) {
   const int num_nodes = static_cast<int>(problem.image_ids.size());
   const std::vector<Edge>& edges = problem.edges;
   LaplacianSolver solver(num_nodes, edges);
@@ -396,6 +397,7 @@ Status SolveRotations(const RotationAveragingOptions& options,
     }
     for (int iteration = 0; iteration < options.max_num_l1_iterations;
          ++iteration) {
+      if (interrupt.IsStopped()) return Status::Cancelled();
       compute_residuals();
       // The ADMM solve need not be exact: relinearizing matters more than
       // inner accuracy, so inner iterations start at 10 and double (capped
@@ -421,6 +423,7 @@ Status SolveRotations(const RotationAveragingOptions& options,
   Eigen::MatrixX3d rhs;
   for (int iteration = 0; iteration < options.max_num_irls_iterations;
        ++iteration) {
+    if (interrupt.IsStopped()) return Status::Cancelled();
     compute_residuals();
     for (size_t e = 0; e < edges.size(); ++e) {
       // Geman-McClure IRLS weight, scaled to 1 at zero residual so that the
@@ -542,7 +545,8 @@ double RelativeRotationErrorDeg(const ImagePair& pair,
 Status AverageRotations(const RotationAveragingOptions& options,
                         ViewGraph* view_graph,
                         colmap::Reconstruction* reconstruction,
-                        size_t* num_rejected_pairs) {
+                        size_t* num_rejected_pairs,
+                        const Interrupt& interrupt) {
   CHECK_NOTNULL(view_graph);
   CHECK_NOTNULL(reconstruction);
   if (!options.Check()) {
@@ -595,7 +599,8 @@ Status AverageRotations(const RotationAveragingOptions& options,
         rotations.push_back(previous_by_id.at(image_id));
       }
     }
-    const Status status = SolveRotations(options, problem, &rotations);
+    const Status status =
+        SolveRotations(options, problem, &rotations, interrupt);
     if (!status.ok()) return status;
 
     // Reject the pairs that disagree with the solution; the next round (and

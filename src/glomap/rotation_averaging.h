@@ -55,11 +55,13 @@ struct RotationAveragingOptions {
 //
 // Returns an error if a pair names an image that is not in the
 // reconstruction, or if fewer than two images remain. num_rejected_pairs
-// (optional) receives the number of pairs this call invalidated.
+// (optional) receives the number of pairs this call invalidated. Returns
+// Cancelled when `interrupt` fires (the view graph may then be changed).
 Status AverageRotations(const RotationAveragingOptions& options,
                         ViewGraph* view_graph,
                         colmap::Reconstruction* reconstruction,
-                        size_t* num_rejected_pairs = nullptr);
+                        size_t* num_rejected_pairs = nullptr,
+                        const Interrupt& interrupt = {});
 
 // Angle between the pair's measured relative rotation and the one implied by
 // the two images' current Qvecs, R2 * R1^T (deg).

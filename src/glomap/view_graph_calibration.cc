@@ -19,6 +19,7 @@
 #include "controllers/incremental_mapper.h"
 #include "estimators/essential_matrix.h"
 #include "estimators/two_view_geometry.h"
+#include "glomap/ceres_interrupt.h"
 #include "glomap/ceres_threads.h"
 #include "optim/loransac.h"
 #include "sfm/incremental_mapper.h"
@@ -357,12 +358,13 @@ struct SmallReconstructionResult {
 };
 
 // Builds the small reconstruction of `image_ids` with COLMAP's incremental
-// mapper, every camera starting from `initial_cameras`.
+// mapper, every camera starting from `initial_cameras`. Stops early when
+// `interrupt` fires (the result is then not used).
 SmallReconstructionResult FocalsFromSmallReconstruction(
     const ViewGraphCalibrationOptions& options, const ViewGraph& view_graph,
     const colmap::Reconstruction& reconstruction,
     const std::map<colmap::camera_t, colmap::Camera>& initial_cameras,
-    const std::vector<colmap::image_t>& image_ids) {
+    const std::vector<colmap::image_t>& image_ids, const Interrupt& interrupt) {
   // The incremental mapper needs a DatabaseCache; it is filled in memory
   // from the view graph (as retriangulation does), never from the database.
   colmap::DatabaseCache cache;
@@ -505,7 +507,7 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
     size_t num_images_at_refinement = small.NumRegImages();
     size_t num_points_at_refinement = small.NumPoints3D();
     bool refined_after_failure = false;
-    while (true) {
+    while (!interrupt.IsStopped()) {
       bool registered = false;
       for (const colmap::image_t image_id : mapper->FindNextImages(mo)) {
         if (!mapper->RegisterNextImage(mo, image_id)) continue;
@@ -547,7 +549,8 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
     // A new mapper per level, so that pairs tried before are tried again.
     colmap::IncrementalMapper mapper(&cache);
     for (int attempt = 0;
-         attempt < kMaxNumInitAttempts && best_num_images < enough_images;
+         attempt < kMaxNumInitAttempts && best_num_images < enough_images &&
+         !interrupt.IsStopped();
          ++attempt) {
       colmap::Reconstruction small;
       mapper.BeginReconstruction(&small);
@@ -599,7 +602,7 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
 std::vector<colmap::camera_t> CalibrateFromSmallReconstruction(
     const ViewGraphCalibrationOptions& options, const ViewGraph& view_graph,
     const std::map<colmap::camera_t, colmap::Camera>& initial_cameras,
-    colmap::Reconstruction* reconstruction) {
+    colmap::Reconstruction* reconstruction, const Interrupt& interrupt) {
   if (options.multi_view_num_images <= 0 || initial_cameras.empty()) {
     return {};
   }
@@ -607,9 +610,10 @@ std::vector<colmap::camera_t> CalibrateFromSmallReconstruction(
       view_graph, *reconstruction,
       static_cast<size_t>(options.multi_view_num_images));
   if (image_ids.size() < kMinNumRegisteredImagesPerCamera) return {};
-  const SmallReconstructionResult small = FocalsFromSmallReconstruction(
-      options, view_graph, *reconstruction, initial_cameras, image_ids);
-  if (small.focals.empty()) return {};
+  const SmallReconstructionResult small =
+      FocalsFromSmallReconstruction(options, view_graph, *reconstruction,
+                                    initial_cameras, image_ids, interrupt);
+  if (small.focals.empty() || interrupt.IsStopped()) return {};
   // The focal matters before bundle adjustment only through the relative
   // poses: where the current focals give the same relative rotations as the
   // small reconstruction, up to less than the bias that counts, they stay.
@@ -670,8 +674,8 @@ bool FundamentalMatrixFocalResiduals(const Eigen::Matrix3d& F,
 
 Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
                           colmap::Reconstruction* reconstruction,
-                          ViewGraph* view_graph,
-                          size_t* num_invalidated_pairs) {
+                          ViewGraph* view_graph, size_t* num_invalidated_pairs,
+                          const Interrupt& interrupt) {
   if (num_invalidated_pairs != nullptr) {
     *num_invalidated_pairs = 0;
   }
@@ -744,8 +748,8 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
 
   if (constraints.empty()) {
     CalibrateFromSmallReconstruction(options, *view_graph, initial_cameras,
-                                     reconstruction);
-    return Status::Ok();
+                                     reconstruction, interrupt);
+    return interrupt.IsStopped() ? Status::Cancelled() : Status::Ok();
   }
 
   // Two solves: from the initial guess (often 20-50% off) every residual lies
@@ -787,6 +791,8 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
       CeresNumThreads(options.num_threads, problem.NumResidualBlocks());
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
+  InterruptCallback interrupt_callback(interrupt);
+  solver_options.callbacks.push_back(&interrupt_callback);
   // One scalar per camera: dense is exact and robust for small problems
   // (a sparse Cholesky on a near-singular system failed upstream, glomap
   // #147); large ones need the sparse structure.
@@ -808,6 +814,7 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
     loss->Reset(new ceres::CauchyLoss(loss_scale), ceres::TAKE_OWNERSHIP);
     ceres::Solver::Summary summary;
     ceres::Solve(solver_options, &problem, &summary);
+    if (interrupt.IsStopped()) return Status::Cancelled();
     if (!summary.IsSolutionUsable()) {
       return Status::Error("View-graph calibration failed: " + summary.message);
     }
@@ -837,13 +844,15 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
   // Where the fundamental matrices do not determine the focal, a small
   // reconstruction does (see the header).
   for (const colmap::camera_t camera_id : CalibrateFromSmallReconstruction(
-           options, *view_graph, initial_cameras, reconstruction)) {
+           options, *view_graph, initial_cameras, reconstruction, interrupt)) {
     const auto phi = phis.find(camera_id);
     if (phi != phis.end()) {
       phi->second = reconstruction->Camera(camera_id).MeanFocalLength() /
                     reference_focals.at(camera_id);
     }
   }
+
+  if (interrupt.IsStopped()) return Status::Cancelled();
 
   // Judge every pair at the final focals with the equations best
   // conditioned there (the solve picked them at the initial focals), so that

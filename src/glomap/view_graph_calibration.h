@@ -86,11 +86,13 @@ struct ViewGraphCalibrationOptions {
 // (so fx = fy afterwards). Pairs touching at least one free camera whose
 // residual at the final focals exceeds `max_two_view_error` are invalidated;
 // their number goes to `num_invalidated_pairs` when it is not null. Without
-// any free camera the function returns Ok and changes nothing.
+// any free camera the function returns Ok and changes nothing. Returns
+// Cancelled when `interrupt` fires (focals may then be partly changed).
 Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
                           colmap::Reconstruction* reconstruction,
                           ViewGraph* view_graph,
-                          size_t* num_invalidated_pairs = nullptr);
+                          size_t* num_invalidated_pairs = nullptr,
+                          const Interrupt& interrupt = {});
 
 // The two relative focal^2 residuals of one fundamental matrix F
 // (x2^T F x1 = 0 in pixels) for focal lengths f1, f2 and principal points
