@@ -37,6 +37,10 @@ TEST(ColmapBinary, StockPipelineOnRealImages) {
   const std::string datasets = testing::SharedDatasetsDir();
   if (datasets.empty()) GTEST_SKIP() << "../shared/datasets is absent";
   const std::string image_path = datasets + "/Herz-Jesus-P8/images";
+  if (!std::filesystem::is_directory(image_path) ||
+      std::filesystem::is_empty(image_path)) {
+    GTEST_SKIP() << image_path << " is absent or empty";
+  }
   const std::string dir = testing::CreateTestDir("colmap_binary_stock");
   const std::string database_path = dir + "/database.db";
   const std::string colmap = ColmapExecutable();

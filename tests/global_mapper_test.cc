@@ -363,8 +363,10 @@ TEST_P(GlobalMapperRealData, MatchesReferenceMappers) {
   const RealCase& c = std::get<0>(GetParam());
   const int seed = std::get<1>(GetParam());
   const std::string dataset_dir = datasets + "/" + c.name;
-  if (!std::filesystem::exists(dataset_dir + "/database.db")) {
-    GTEST_SKIP() << c.name << " is not in " << datasets;
+  if (!std::filesystem::exists(dataset_dir + "/database.db") ||
+      !std::filesystem::is_directory(dataset_dir + "/gt")) {
+    GTEST_SKIP() << c.name << " (its database.db and gt/) is not in "
+                 << datasets;
   }
   const std::string database_path = dataset_dir + "/database.db";
   const std::string digest_before = testing::FileDigest(database_path);
