@@ -1,8 +1,12 @@
 #include "glomap/database_reader.h"
 
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sqlite3.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -10,6 +14,7 @@
 
 #include "base/database.h"
 #include "estimators/two_view_geometry.h"
+#include "glomap/synthetic_scene.h"
 #include "tests/support/test_paths.h"
 
 namespace glomap {
@@ -366,6 +371,105 @@ TEST(DatabaseReader, ReadsWhileWriterHasLog) {
   EXPECT_EQ(reconstruction.NumImages(), 2);
   EXPECT_EQ(view_graph.NumPairs(), 1);
 }
+
+// Another process writes to the database while it is read, committing
+// again and again a change to two tables that are read far apart: camera 1's
+// focal (read first) and one verified pair (read last, after every
+// keypoint), both changed or both as they were. Every read must see one
+// committed state or fail with an error that says why; never a mix. In
+// rollback-journal mode the writes rewrite the file under an immutable read;
+// in WAL mode they stay in the log, which the reader must go through.
+class DatabaseReaderConcurrentWriter
+    : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(DatabaseReaderConcurrentWriter, ReadsOneCommittedStateOrRefuses) {
+  const std::string journal_mode = GetParam();
+  const std::string dir =
+      testing::CreateTestDir("database_reader_concurrent_" + journal_mode);
+  const std::string path = dir + "/database.db";
+  SyntheticSceneOptions scene;
+  scene.num_images = 30;
+  colmap::Reconstruction ground_truth;
+  ASSERT_TRUE(WriteSyntheticScene(scene, path, &ground_truth).ok());
+  ASSERT_FALSE(std::filesystem::exists(path + "-wal"));
+  colmap::Reconstruction original;
+  ViewGraph original_pairs;
+  ASSERT_TRUE(
+      Read(path, DatabaseReaderOptions(), &original, &original_pairs).ok());
+  const double focal = original.Camera(1).Params(0);
+  const colmap::image_pair_t pair_id = original_pairs.Pairs().rbegin()->first;
+
+  const pid_t writer = fork();
+  ASSERT_GE(writer, 0);
+  if (writer == 0) {
+    sqlite3* db = nullptr;
+    if (sqlite3_open(path.c_str(), &db) != SQLITE_OK) _exit(2);
+    sqlite3_busy_timeout(db, 10000);
+    auto exec = [db](const std::string& sql) {
+      if (sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr) !=
+          SQLITE_OK) {
+        _exit(3);
+      }
+    };
+    exec("PRAGMA journal_mode=" + journal_mode + ";");
+    exec(
+        "CREATE TEMP TABLE saved AS SELECT * FROM two_view_geometries "
+        "WHERE pair_id=" +
+        std::to_string(pair_id) + ";");
+    for (int i = 0;; ++i) {
+      exec("BEGIN IMMEDIATE;");
+      if (i % 2 == 0) {
+        exec("DELETE FROM two_view_geometries WHERE pair_id=" +
+             std::to_string(pair_id) + ";");
+      } else {
+        exec("INSERT INTO two_view_geometries SELECT * FROM saved;");
+      }
+      colmap::Camera camera = original.Camera(1);
+      camera.Params(0) = i % 2 == 0 ? 1.5 * focal : focal;
+      sqlite3_stmt* stmt = nullptr;
+      sqlite3_prepare_v2(db, "UPDATE cameras SET params=? WHERE camera_id=1;",
+                         -1, &stmt, nullptr);
+      sqlite3_bind_blob(stmt, 1, camera.ParamsData(),
+                        sizeof(double) * camera.NumParams(), SQLITE_TRANSIENT);
+      sqlite3_step(stmt);
+      sqlite3_finalize(stmt);
+      exec("COMMIT;");
+      usleep(200);  // As a matcher does between blocks.
+    }
+  }
+
+  int num_reads = 0, num_changed = 0, num_refused = 0;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+  while (std::chrono::steady_clock::now() < end) {
+    colmap::Reconstruction reconstruction;
+    ViewGraph view_graph;
+    const Status status =
+        Read(path, DatabaseReaderOptions(), &reconstruction, &view_graph);
+    ++num_reads;
+    if (!status.ok()) {
+      ++num_refused;
+      EXPECT_NE(status.message().find("another program is writing"),
+                std::string::npos)
+          << status.message();
+      continue;
+    }
+    const bool camera_changed = reconstruction.Camera(1).Params(0) != focal;
+    const bool pair_changed = view_graph.Pairs().count(pair_id) == 0;
+    EXPECT_EQ(camera_changed, pair_changed) << "a mix of two states";
+    EXPECT_EQ(view_graph.NumPairs() + pair_changed, original_pairs.NumPairs());
+    num_changed += camera_changed;
+  }
+  int status = 0;
+  EXPECT_EQ(waitpid(writer, &status, WNOHANG), 0) << "the writer stopped";
+  kill(writer, SIGKILL);
+  waitpid(writer, &status, 0);
+  printf("%s: %d reads, %d saw the changed state, %d refused\n",
+         journal_mode.c_str(), num_reads, num_changed, num_refused);
+  EXPECT_GT(num_reads, num_refused);
+}
+
+INSTANTIATE_TEST_SUITE_P(JournalModes, DatabaseReaderConcurrentWriter,
+                         ::testing::Values("WAL", "DELETE"));
 
 TEST(DatabaseReader, Errors) {
   const std::string dir = testing::CreateTestDir("database_reader_errors");

@@ -357,6 +357,43 @@ TEST(GlobalMapperCommand, SignalStopsEveryStageWithinASecond) {
   }
 }
 
+// A project on a read-only mount (a bind mount here, which needs root):
+// the run works and nothing is created beside the database, which a
+// read-only SQLite connection to a WAL-mode database would otherwise try
+// (-wal, -shm).
+TEST(GlobalMapperCommand, ProjectOnReadOnlyMount) {
+  const Project project = MakeProject("command_read_only_mount");
+  const std::string mount_point = project.dir + "_ro";
+  fs::remove_all(mount_point);
+  fs::create_directories(mount_point);
+  std::string log;
+  if (RunCommand("mount --bind '" + project.dir + "' '" + mount_point +
+                     "' && mount -o remount,bind,ro '" + mount_point + "'",
+                 &log) != 0) {
+    RunCommand("umount '" + mount_point + "'");
+    GTEST_SKIP() << "Cannot make a read-only bind mount (needs root): " << log;
+  }
+  struct Unmount {
+    std::string path;
+    ~Unmount() { RunCommand("umount '" + path + "'"); }
+  } unmount{mount_point};
+  ASSERT_NE(RunCommand("touch '" + mount_point + "/probe'"), 0)
+      << "the mount is writable";
+  const std::map<std::string, std::string> before = Snapshot(project.dir);
+  const std::string output_path =
+      CreateTestDir("command_read_only_mount_out") + "/sparse";
+  ASSERT_EQ(RunCommand(ColmapExecutable() + " global_mapper --database_path " +
+                           mount_point + "/database.db --image_path " +
+                           mount_point + "/images --output_path " + output_path,
+                       &log),
+            0)
+      << log;
+  EXPECT_EQ(Snapshot(project.dir), before);
+  colmap::Reconstruction model;
+  model.Read(output_path + "/0");
+  EXPECT_EQ(model.NumRegImages(), 12);
+}
+
 // A full disk (here: a file-size limit, with SIGXFSZ ignored so that writes
 // fail as they do on a full disk) gives an error and leaves the earlier
 // model in place, never a truncated one with exit code 0.

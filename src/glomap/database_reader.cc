@@ -1,6 +1,7 @@
 #include "glomap/database_reader.h"
 
 #include <sqlite3.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <cmath>
@@ -22,6 +23,12 @@
 
 namespace glomap {
 namespace {
+
+// How long a read waits for another program's write lock on the database.
+constexpr int kBusyTimeoutMs = 30000;
+
+// How often a database that changes while it is read is read again.
+constexpr int kMaxNumReadAttempts = 3;
 
 // COLMAP 3.8's Database::kMaxNumImages: pair_id = id1 * kMax + id2.
 constexpr int64_t kPairIdFactor = 2147483647;
@@ -122,12 +129,56 @@ bool NonEmptyFileExists(const std::string& path) {
   return !error && size > 0;
 }
 
+// One version of a database file. Every change another process commits
+// either rewrites the file (its size, mtime or ctime change, to the
+// nanosecond) or stays in a write-ahead log or journal beside it: a file whose
+// version is the same before and after a read, without such a log, did not
+// change during the read.
+struct FileVersion {
+  bool exists = false;
+  dev_t device = 0;
+  ino_t inode = 0;
+  off_t size = 0;
+  timespec mtime = {0, 0};
+  timespec ctime = {0, 0};
+  bool has_pending_changes = false;  // A non-empty -wal or -journal file.
+
+  bool operator==(const FileVersion& other) const {
+    return exists == other.exists && device == other.device &&
+           inode == other.inode && size == other.size &&
+           mtime.tv_sec == other.mtime.tv_sec &&
+           mtime.tv_nsec == other.mtime.tv_nsec &&
+           ctime.tv_sec == other.ctime.tv_sec &&
+           ctime.tv_nsec == other.ctime.tv_nsec &&
+           has_pending_changes == other.has_pending_changes;
+  }
+};
+
+FileVersion ReadFileVersion(const std::string& path) {
+  FileVersion version;
+  struct stat info;
+  if (stat(path.c_str(), &info) != 0) return version;
+  version.exists = true;
+  version.device = info.st_dev;
+  version.inode = info.st_ino;
+  version.size = info.st_size;
+  version.mtime = info.st_mtim;
+  version.ctime = info.st_ctim;
+  version.has_pending_changes = NonEmptyFileExists(path + "-wal") ||
+                                NonEmptyFileExists(path + "-journal");
+  return version;
+}
+
 // Reads a database through one read-only connection and turns every SQLite
 // failure into a one-line Status.
 class Reader {
  public:
-  Reader(std::string path, const DatabaseReaderOptions& options)
-      : path_(std::move(path)), options_(options) {}
+  // `immutable`: read without locks and without files beside the database
+  // (SQLite's immutable=1); only correct if nobody writes meanwhile, which
+  // the caller checks. Otherwise everything is read in one read transaction
+  // of a normal read-only connection, which sees one committed state.
+  Reader(std::string path, const DatabaseReaderOptions& options, bool immutable)
+      : path_(std::move(path)), options_(options), immutable_(immutable) {}
 
   Status Open();
   Status CheckSchema();
@@ -159,6 +210,7 @@ class Reader {
 
   const std::string path_;
   const DatabaseReaderOptions& options_;
+  const bool immutable_;
   SqlitePtr db_;
 
   std::unordered_map<colmap::camera_t, colmap::Camera> cameras_;
@@ -192,14 +244,12 @@ Status Reader::Open() {
   }
 
   // immutable=1 tells SQLite that nobody changes the file while we read it,
-  // so it takes no locks and creates no -shm or -journal files next to it.
-  // That is only true when no write-ahead log or hot journal holds pending
-  // changes; then plain read-only mode lets SQLite read them.
-  const bool pending_changes = NonEmptyFileExists(path_ + "-wal") ||
-                               NonEmptyFileExists(path_ + "-journal");
-  const std::string uri =
-      "file:" + PercentEncodePath(path_) +
-      (pending_changes ? "?mode=ro" : "?mode=ro&immutable=1");
+  // so it takes no locks and creates no -shm, -wal or -journal files next to
+  // it (a normal read-only connection to a database in WAL mode, as COLMAP
+  // writes them, creates and leaves -wal and -shm files; on a read-only
+  // mount it cannot open it at all).
+  const std::string uri = "file:" + PercentEncodePath(path_) +
+                          (immutable_ ? "?mode=ro&immutable=1" : "?mode=ro");
   sqlite3* db = nullptr;
   const int rc = sqlite3_open_v2(
       uri.c_str(), &db, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, nullptr);
@@ -207,6 +257,19 @@ Status Reader::Open() {
   if (rc != SQLITE_OK) {
     return Status::Error("The database file " + path_ + " cannot be opened: " +
                          (db ? sqlite3_errmsg(db) : sqlite3_errstr(rc)) + ".");
+  }
+  if (!immutable_) {
+    // Another program may hold a write lock for a moment (COLMAP's matchers
+    // commit in blocks): wait for it rather than fail at once.
+    sqlite3_busy_timeout(db_.get(), kBusyTimeoutMs);
+    char* message = nullptr;
+    if (sqlite3_exec(db_.get(), "BEGIN;", nullptr, nullptr, &message) !=
+        SQLITE_OK) {
+      const std::string text = message ? message : "unknown error";
+      sqlite3_free(message);
+      return Status::Error("The database file " + path_ +
+                           " cannot be read: " + text + ".");
+    }
   }
   return Status::Ok();
 }
@@ -902,20 +965,43 @@ Status ReadDatabase(const std::string& database_path,
     return Status::Error(
         "ReadDatabase needs an empty reconstruction and view graph.");
   }
-  Reader reader(database_path, options);
-  for (Status (Reader::*step)() :
-       {&Reader::Open, &Reader::CheckSchema, &Reader::ReadCameras,
-        &Reader::ReadImages, &Reader::ReadKeypoints,
-        &Reader::ReadRawMatchCounts}) {
-    Status status = (reader.*step)();
+  // Without a write-ahead log or journal beside it, the file is read
+  // immutably and its version compared before and after: if another program
+  // wrote meanwhile, the read is thrown away and repeated. With one, the
+  // read goes through SQLite's locks in one transaction.
+  for (int attempt = 1;; ++attempt) {
+    const FileVersion before = ReadFileVersion(database_path);
+    const bool immutable = !before.has_pending_changes;
+    Reader reader(database_path, options, immutable);
+    Status status = Status::Ok();
+    for (Status (Reader::*step)() :
+         {&Reader::Open, &Reader::CheckSchema, &Reader::ReadCameras,
+          &Reader::ReadImages, &Reader::ReadKeypoints,
+          &Reader::ReadRawMatchCounts}) {
+      status = (reader.*step)();
+      if (!status.ok()) break;
+    }
+    ViewGraph pairs;
+    if (status.ok()) status = reader.ReadVerifiedPairs(&pairs);
+    if (immutable && !(ReadFileVersion(database_path) == before)) {
+      if (attempt < kMaxNumReadAttempts) {
+        LOG(WARNING) << "The database " << database_path
+                     << " changed while it was read (another program is "
+                        "writing to it); reading it again.";
+        continue;
+      }
+      return Status::Error(
+          "The database " + database_path +
+          " changed every time it was read (" +
+          std::to_string(kMaxNumReadAttempts) +
+          " times): another program is writing to it. Run the mapper when "
+          "it has finished.");
+    }
     if (!status.ok()) return status;
+    reader.MoveInto(reconstruction);
+    *view_graph = std::move(pairs);
+    return Status::Ok();
   }
-  ViewGraph pairs;
-  Status status = reader.ReadVerifiedPairs(&pairs);
-  if (!status.ok()) return status;
-  reader.MoveInto(reconstruction);
-  *view_graph = std::move(pairs);
-  return Status::Ok();
 }
 
 }  // namespace glomap

@@ -64,6 +64,13 @@ struct DatabaseReaderOptions {
 //  - pairs left with fewer than `min_num_matches` matches: ignored.
 // A database with fewer than two usable images, or without a usable pair,
 // is an error.
+//
+// Nothing is written beside the database (it may sit on a read-only mount):
+// it is read immutably, without locks, and read again when its size or
+// times changed meanwhile (another program wrote to it; after three tries
+// that is an error). Only when a write-ahead log or journal holds changes
+// not yet in the file does the read go through SQLite's locks, in one
+// transaction, waiting up to 30 s for a writer's lock.
 Status ReadDatabase(const std::string& database_path,
                     const DatabaseReaderOptions& options,
                     colmap::Reconstruction* reconstruction,
