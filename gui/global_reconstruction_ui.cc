@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "colmap_ext/global_mapper_options.h"
+#include "colmap_ext/terminate_handler.h"
 #include "gui/global_mapper_options_dialog.h"
 #include "ui/main_window.h"
 #include "util/misc.h"
@@ -34,6 +35,9 @@ QString FormatElapsed(qint64 msecs) {
 }  // namespace
 
 GlobalReconstructionUi* InstallGlobalReconstruction(MainWindow* main_window) {
+  // An exception that escapes a Ceres or OpenMP thread during a run ends the
+  // GUI with one error line, as on the command line, not with SIGABRT.
+  InstallTerminateHandler();
   return new GlobalReconstructionUi(main_window);
 }
 

@@ -24,6 +24,7 @@
 #include "base/reconstruction_manager.h"
 #include "colmap_ext/commands.h"
 #include "colmap_ext/global_mapper_options.h"
+#include "colmap_ext/terminate_handler.h"
 #include "glomap/global_mapper_controller.h"
 #include "glomap/status.h"
 #include "util/misc.h"
@@ -368,28 +369,6 @@ std::string WriteModelsAtomically(const ReconstructionManager& models,
   return "";
 }
 
-// Last resort for an exception that leaves a thread we do not own (a Ceres
-// worker; our own threads catch everything): one error line and exit code 1,
-// as for any other error, instead of "terminate called" and SIGABRT.
-[[noreturn]] void ReportTerminationAndExit() {
-  // Nothing may leave a terminate handler (the runtime would abort), and
-  // building the message needs memory that may be gone.
-  try {
-    std::string message =
-        "Internal error: the run was terminated (please report it).";
-    // Only an uncaught exception can be rethrown here; without one, `throw;`
-    // would call std::terminate again.
-    if (std::current_exception()) {
-      message = glomap::StatusFromCurrentException().message();
-    }
-    std::fprintf(stderr, "ERROR: %s\n", message.c_str());
-  } catch (...) {
-    std::fprintf(stderr, "ERROR: %s\n", glomap::kOutOfMemoryMessage);
-  }
-  std::fflush(stderr);
-  std::_Exit(EXIT_FAILURE);
-}
-
 int RunGlobalMapperOrThrow(int argc, char** argv, SignalWatcher& signals,
                            OutputGuard* output_guard) {
   glomap::GlobalMapperOptions mapper_options;
@@ -515,7 +494,7 @@ int RunGlobalMapperOrThrow(int argc, char** argv, SignalWatcher& signals,
 }  // namespace
 
 int RunGlobalMapper(int argc, char** argv) {
-  std::set_terminate(&ReportTerminationAndExit);
+  InstallTerminateHandler();
   // The pipeline thread reports its own exceptions as a status; this catches
   // those of the command itself (options, paths, writing the models).
   try {

@@ -13,10 +13,12 @@
 #include <functional>
 #include <iterator>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "base/database.h"
 #include "colmap_ext/global_mapper_options.h"
+#include "colmap_ext/terminate_handler.h"
 #include "glomap/synthetic_scene.h"
 #include "gui/global_mapper_options_dialog.h"
 #include "gui/global_reconstruction_ui.h"
@@ -174,6 +176,7 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
   ParseGuiArguments(project_path, &options, &import_path);
   MainWindow window(options);
   GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
+  EXPECT_EQ(std::get_terminate(), &ReportTerminationAndExit);
   window.resize(1400, 860);
   window.show();
   ProcessEventsFor(300);
@@ -427,6 +430,26 @@ TEST(GlobalReconstructionGui, CancelStopsMidRunWithinASecond) {
     EXPECT_TRUE(ui->RunAction()->isEnabled());
   }
   EXPECT_TRUE(messages.isEmpty()) << messages.join("\n").toStdString();
+}
+
+// An exception that escapes a thread the GUI does not own (a Ceres worker)
+// ends the program with one error line and exit code 1, not SIGABRT; the
+// global reconstruction installs that handler with its menu entry.
+TEST(GlobalReconstructionGuiDeathTest,
+     ExceptionInAForeignThreadIsOneErrorLine) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(
+      {
+        InstallTerminateHandler();
+        std::thread([]() { throw std::runtime_error("boom"); }).join();
+      },
+      ::testing::ExitedWithCode(1), "ERROR: Internal error: boom");
+  EXPECT_EXIT(
+      {
+        InstallTerminateHandler();
+        std::thread([]() { throw std::bad_alloc(); }).join();
+      },
+      ::testing::ExitedWithCode(1), "ERROR: Out of memory");
 }
 
 TEST(GlobalReconstructionGui, ClosingTheWindowStopsTheRun) {
