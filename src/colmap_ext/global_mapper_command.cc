@@ -20,6 +20,8 @@
 #include <mutex>
 #include <system_error>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include "base/reconstruction_manager.h"
 #include "colmap_ext/commands.h"
@@ -299,6 +301,13 @@ std::string WriteModelsAtomically(const ReconstructionManager& models,
   std::error_code error;
   const fs::path temp_dir = fs::path(output_path) /
                             (".global_mapper_tmp_" + std::to_string(getpid()));
+  // Renames done while swapping, so that a failure can undo them.
+  std::vector<std::pair<fs::path, fs::path>> moves;
+  auto move = [&moves](const fs::path& from, const fs::path& to) {
+    fs::rename(from, to);
+    moves.emplace_back(from, to);
+  };
+  std::vector<std::string> removed;
   try {
     {
       std::lock_guard<std::mutex> lock(guard->mutex);
@@ -344,26 +353,36 @@ std::string WriteModelsAtomically(const ReconstructionManager& models,
       }
       for (size_t k = 0; k < models.Size(); ++k) {
         const fs::path final_dir = fs::path(output_path) / std::to_string(k);
-        const fs::path old_dir = temp_dir / ("old_" + std::to_string(k));
-        if (fs::exists(final_dir)) fs::rename(final_dir, old_dir);
-        fs::rename(temp_dir / std::to_string(k), final_dir);
+        if (fs::exists(final_dir)) {
+          move(final_dir, temp_dir / ("old_" + std::to_string(k)));
+        }
+        move(temp_dir / std::to_string(k), final_dir);
       }
       for (const fs::directory_entry& entry :
            fs::directory_iterator(output_path)) {
         const std::string name = entry.path().filename().string();
         if (IsNumberedModelDir(entry.path()) &&
             std::stoull(name.substr(0, 18)) >= models.Size()) {
-          fs::rename(entry.path(), temp_dir / ("stale_" + name));
-          std::cerr << "Removed " << entry.path().string()
-                    << ": a model of an earlier run." << std::endl;
+          move(entry.path(), temp_dir / ("stale_" + name));
+          removed.push_back(entry.path().string());
         }
       }
       guard->committed = true;
     }
   } catch (const std::exception& e) {
     std::lock_guard<std::mutex> lock(guard->mutex);
-    if (!guard->committed) guard->Undo();
+    if (!guard->committed) {
+      // Puts back what was swapped so far, newest first.
+      for (auto it = moves.rbegin(); it != moves.rend(); ++it) {
+        fs::rename(it->second, it->first, error);
+      }
+      guard->Undo();
+    }
     return std::string("Writing the model failed: ") + e.what();
+  }
+  for (const std::string& path : removed) {
+    std::cerr << "Removed " << path << ": a model of an earlier run."
+              << std::endl;
   }
   fs::remove_all(temp_dir, error);
   return "";
