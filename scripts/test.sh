@@ -33,3 +33,4 @@ export GLOMAP_EXTRA_PACKAGES="colmap clang libclang-rt-14-dev"
 cd "${BUILD_DIR}"
 echo "[test] running ctest"
 ctest --output-on-failure -j1
+if [[ "${sanitize}" == 0 ]]; then "${ROOT_DIR}/scripts/fuzz.sh" --seconds 60 "$(pwd)"; fi  # fuzz the database reader for 60 s (tests/fuzz/README.md)

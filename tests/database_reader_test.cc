@@ -471,6 +471,33 @@ TEST_P(DatabaseReaderConcurrentWriter, ReadsOneCommittedStateOrRefuses) {
 INSTANTIATE_TEST_SUITE_P(JournalModes, DatabaseReaderConcurrentWriter,
                          ::testing::Values("WAL", "DELETE"));
 
+// Inputs the fuzzer (tests/fuzz/) found: a verified-match count whose byte
+// size overflows int64, and a generated column that makes a 7 KB file read
+// as gigabytes of keypoints. Both must be one error, quickly.
+TEST(DatabaseReader, FuzzRegressionsAreErrors) {
+  const std::filesystem::path dir =
+      std::filesystem::path(GLOMAP_SOURCE_DIR) / "tests/fuzz/regressions";
+  int num_files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() != ".db") continue;
+    ++num_files;
+    const std::string copy =
+        testing::CreateTestDir("database_reader_fuzz_regression") + "/" +
+        entry.path().filename().string();
+    std::filesystem::copy_file(entry.path(), copy);
+    colmap::Reconstruction reconstruction;
+    ViewGraph view_graph;
+    const Status status =
+        Read(copy, DatabaseReaderOptions(), &reconstruction, &view_graph);
+    EXPECT_FALSE(status.ok()) << entry.path();
+    EXPECT_EQ(status.message().find("Internal error"), std::string::npos)
+        << status.message();
+    printf("%s: %s\n", entry.path().filename().c_str(),
+           status.message().c_str());
+  }
+  EXPECT_GE(num_files, 2);
+}
+
 TEST(DatabaseReader, Errors) {
   const std::string dir = testing::CreateTestDir("database_reader_errors");
   const auto expect_error = [](const Status& status, const std::string& text) {

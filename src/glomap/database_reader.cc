@@ -258,6 +258,18 @@ Status Reader::Open() {
     return Status::Error("The database file " + path_ + " cannot be opened: " +
                          (db ? sqlite3_errmsg(db) : sqlite3_errstr(rc)) + ".");
   }
+  // No value can be longer than the file and its log hold; a computed one
+  // that is (zeroblob() in a generated column) is refused by SQLite instead
+  // of allocated.
+  std::error_code size_error;
+  uintmax_t num_file_bytes = std::filesystem::file_size(path_, size_error);
+  if (size_error) num_file_bytes = 0;
+  const uintmax_t num_wal_bytes =
+      std::filesystem::file_size(path_ + "-wal", size_error);
+  if (!size_error) num_file_bytes += num_wal_bytes;
+  sqlite3_limit(db_.get(), SQLITE_LIMIT_LENGTH,
+                static_cast<int>(std::min<uintmax_t>(
+                    num_file_bytes + 1024, std::numeric_limits<int>::max())));
   if (!immutable_) {
     // Another program may hold a write lock for a moment (COLMAP's matchers
     // commit in blocks): wait for it rather than fail at once.
@@ -327,6 +339,27 @@ Status Reader::CheckSchema() {
     return Status::Error(path_ + " is not a COLMAP database (no table" +
                          missing + ").");
   }
+  // COLMAP never writes generated (computed) columns; one could make a few
+  // bytes of file read as gigabytes of keypoints.
+  StatementPtr columns;
+  status = Prepare(
+      "SELECT m.name, c.name FROM sqlite_master AS m, "
+      "pragma_table_xinfo(m.name) AS c WHERE m.type = 'table' AND m.name IN "
+      "('cameras', 'images', 'keypoints', 'matches', 'two_view_geometries') "
+      "AND c.hidden != 0;",
+      &columns);
+  if (!status.ok()) return status;
+  rc = sqlite3_step(columns.get());
+  if (rc == SQLITE_ROW) {
+    const unsigned char* table = sqlite3_column_text(columns.get(), 0);
+    const unsigned char* column = sqlite3_column_text(columns.get(), 1);
+    return Status::Error(path_ + " is not a COLMAP 3.8 database: column " +
+                         (table ? reinterpret_cast<const char*>(table) : "") +
+                         "." +
+                         (column ? reinterpret_cast<const char*>(column) : "") +
+                         " is computed (a generated column).");
+  }
+  if (rc != SQLITE_DONE) return StepError("the table columns");
   return Status::Ok();
 }
 
@@ -752,8 +785,11 @@ Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
     const int64_t cols = sqlite3_column_int64(row, 2);
     const void* blob = sqlite3_column_blob(row, 3);
     const int64_t num_bytes = sqlite3_column_bytes(row, 3);
-    if (cols != 2 || blob == nullptr ||
-        num_bytes != rows * 2 * static_cast<int64_t>(sizeof(uint32_t))) {
+    // rows comes from the file: compare it with the blob's size instead of
+    // multiplying it (rows * 8 overflows for rows >= 2^60).
+    constexpr int64_t kMatchBytes = 2 * sizeof(uint32_t);
+    if (cols != 2 || blob == nullptr || num_bytes % kMatchBytes != 0 ||
+        rows != num_bytes / kMatchBytes) {
       return Corrupt("the verified matches of " + pair_text() +
                      " do not have the stored size");
     }
