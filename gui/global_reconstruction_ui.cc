@@ -1,6 +1,7 @@
 #include "gui/global_reconstruction_ui.h"
 
 #include <algorithm>
+#include <iostream>
 
 #include "colmap_ext/global_mapper_options.h"
 #include "colmap_ext/terminate_handler.h"
@@ -23,14 +24,36 @@ void InsertActionAfter(QWidget* container, QAction* after, QAction* action) {
 }
 
 // "mm:ss", or "h:mm:ss" from one hour on.
-QString FormatElapsed(qint64 msecs) {
-  const qint64 seconds = msecs / 1000;
+QString FormatElapsed(double elapsed_seconds) {
+  const qint64 seconds = static_cast<qint64>(elapsed_seconds);
   if (seconds < 3600) {
     return QString::asprintf("%02lld:%02lld", seconds / 60, seconds % 60);
   }
   return QString::asprintf("%lld:%02lld:%02lld", seconds / 3600,
                            (seconds / 60) % 60, seconds % 60);
 }
+
+// glog prints with C stdio (or into files), past COLMAP's LogWidget, which
+// captures only the C++ streams. This sink hands each line, in the format the
+// command prints, to std::clog: while the window lives that is the LogWidget,
+// whose stream buffer may be written from any thread (a mutex-guarded queue
+// that a timer flushes on the GUI thread), and it keeps the lines in order
+// with what the pipeline and COLMAP print to std::cout. Once the widget is
+// gone it has given the stream back to stderr, so a line logged by a worker
+// that outlives it is never written into a destroyed widget.
+class LogDockSink : public google::LogSink {
+ public:
+  void send(google::LogSeverity severity, const char* /*full_filename*/,
+            const char* base_filename, int line,
+            const google::LogMessageTime& time, const char* message,
+            size_t message_len) override {
+    std::string text =
+        ToString(severity, base_filename, line, time, message, message_len);
+    text += '\n';
+    // One write, so that lines of concurrent threads do not interleave.
+    std::clog.write(text.data(), static_cast<std::streamsize>(text.size()));
+  }
+};
 
 }  // namespace
 
@@ -53,6 +76,10 @@ GlobalReconstructionUi::GlobalReconstructionUi(MainWindow* main_window)
       if (ExistsFile(*window_->options_.project_path)) SaveProjectOptions();
     });
   });
+  // For the window's life rather than per run: the options' checks before a
+  // run log their reasons too, and the Log dock is where the GUI points to.
+  log_sink_ = std::make_unique<LogDockSink>();
+  google::AddLogSink(log_sink_.get());
   // `colmap gui --project_path p.ini` opened a project before we existed.
   ReportExceptions([this]() { LoadProjectOptions(); });
 
@@ -75,6 +102,7 @@ GlobalReconstructionUi::~GlobalReconstructionUi() {
     }
     controller_->Wait();
   }
+  google::RemoveLogSink(log_sink_.get());
 }
 
 const ReconstructionManager& GlobalReconstructionUi::Models() const {
@@ -143,12 +171,17 @@ void GlobalReconstructionUi::CreateStatusWidgets() {
   progress_label_->setFont(font);
   // Wide enough for the longest stage name, so the time does not jump.
   progress_label_->setMinimumWidth(QFontMetrics(font).horizontalAdvance(
-      "Global reconstruction: Stage 9/9 View graph calibration \u2014 "
-      "00:00:00"));
+      "Global reconstruction: Stage 10/11 Final pose verification, pausing "
+      "\u2014 00:00:00"));
   progress_bar_ = new QProgressBar(window_);
   progress_bar_->setRange(0, glomap::GlobalMapper::kNumStages);
   progress_bar_->setFormat("%v/%m");
   progress_bar_->setMaximumWidth(160);
+  pause_button_ = new QPushButton(tr("Pause"), window_);
+  pause_button_->setToolTip(
+      tr("Pause the global reconstruction at its next step, or resume it"));
+  connect(pause_button_, &QPushButton::clicked, this,
+          [this]() { ReportExceptions([this]() { TogglePause(); }); });
   cancel_button_ = new QPushButton(tr("Cancel"), window_);
   cancel_button_->setToolTip(tr("Stop the global reconstruction"));
   connect(cancel_button_, &QPushButton::clicked, this, [this]() { Cancel(); });
@@ -156,9 +189,11 @@ void GlobalReconstructionUi::CreateStatusWidgets() {
   QStatusBar* status_bar = window_->statusBar();
   status_bar->addPermanentWidget(progress_label_);
   status_bar->addPermanentWidget(progress_bar_);
+  status_bar->addPermanentWidget(pause_button_);
   status_bar->addPermanentWidget(cancel_button_);
   progress_label_->hide();
   progress_bar_->hide();
+  pause_button_->hide();
   cancel_button_->hide();
 
   progress_timer_ = new QTimer(this);
@@ -274,14 +309,19 @@ void GlobalReconstructionUi::Run() {
       });
 
   running_ = true;
+  paused_ = false;
   cancelling_ = false;
   closing_ = false;
   LockWindow();
+  // The status bar's "Time", as for the incremental mapper; our progress
+  // label shows the same clock.
   window_->timer_.Restart();
-  elapsed_.start();
   progress_bar_->setValue(0);
   progress_label_->show();
   progress_bar_->show();
+  pause_button_->setText(tr("Pause"));
+  pause_button_->setEnabled(true);
+  pause_button_->show();
   cancel_button_->setEnabled(true);
   cancel_button_->show();
   UpdateProgress();
@@ -296,9 +336,11 @@ void GlobalReconstructionUi::Run() {
     controller_.reset();
     progress_timer_->stop();
     window_->timer_.Pause();
+    window_->UpdateTimer();
     UnlockWindow();
     progress_label_->setText(tr("Global reconstruction failed"));
     progress_bar_->hide();
+    pause_button_->hide();
     cancel_button_->hide();
     ShowError(last_status_.message());
   }
@@ -308,7 +350,32 @@ void GlobalReconstructionUi::Cancel() {
   if (!IsRunning() || cancelling_) return;
   cancelling_ = true;
   cancel_button_->setEnabled(false);
+  pause_button_->setEnabled(false);
+  // Stop() also wakes a paused worker, which then sees the stop at once.
   controller_->Stop();
+  SetPaused(false);
+  UpdateProgress();
+}
+
+void GlobalReconstructionUi::TogglePause() {
+  if (!IsRunning() || cancelling_) return;
+  SetPaused(!paused_);
+}
+
+void GlobalReconstructionUi::SetPaused(bool paused) {
+  if (paused == paused_) return;
+  paused_ = paused;
+  // Like MainWindow's ReconstructionPause/Start: the clock stops with the
+  // user's click, not when the worker reaches its next check. The models
+  // stay locked: the worker still holds the working model.
+  if (paused) {
+    controller_->Pause();
+    window_->timer_.Pause();
+  } else {
+    controller_->Resume();
+    window_->timer_.Resume();
+  }
+  pause_button_->setText(paused ? tr("Resume") : tr("Pause"));
   UpdateProgress();
 }
 
@@ -317,6 +384,7 @@ void GlobalReconstructionUi::StopAndWait() {
   closing_ = true;
   cancelling_ = true;
   controller_->Stop();
+  SetPaused(false);
   while (!controller_->IsFinished()) {
     QCoreApplication::processEvents(QEventLoop::ExcludeUserInputEvents, 20);
     QThread::msleep(5);
@@ -338,8 +406,18 @@ void GlobalReconstructionUi::UpdateProgress() {
                 .arg(glomap::GlobalMapper::kNumStages)
                 .arg(QString::fromStdString(controller_->StageName()));
   }
-  progress_label_->setText(QString("Global reconstruction: %1 \u2014 %2")
-                               .arg(stage, FormatElapsed(elapsed_.elapsed())));
+  if (paused_) {
+    // colmap::Thread counts as running until the worker blocks in its
+    // check: only then has the pipeline really stopped moving.
+    stage += controller_->IsRunning() ? tr(", pausing") : tr(", paused");
+  }
+  progress_label_->setText(
+      QString("Global reconstruction: %1 \u2014 %2")
+          .arg(stage, FormatElapsed(window_->timer_.ElapsedSeconds())));
+  // MainWindow redraws its "Time" only once a second, on a tick of its own:
+  // a run that had reached its second second could still show "Time
+  // 00:00:00:00" beside our "00:01". Redrawn here, the two always agree.
+  window_->UpdateTimer();
   // The bar counts stages begun, like the "Stage k/n" text.
   progress_bar_->setValue(std::max(stage_index + 1, 0));
 }
@@ -356,7 +434,11 @@ void GlobalReconstructionUi::OnFinished() {
   controller_->Wait();
   running_ = false;
   progress_timer_->stop();
-  window_->timer_.Pause();
+  // A run can end while paused (after its last check): its clock is
+  // already stopped, and pausing it again would lose the pause.
+  if (!paused_) window_->timer_.Pause();
+  paused_ = false;
+  window_->UpdateTimer();
   last_status_ = controller_->RunStatus();
   UnlockWindow();
 
@@ -370,8 +452,9 @@ void GlobalReconstructionUi::OnFinished() {
   window_->action_bundle_adjustment_->setEnabled(models.Size() > 0);
 
   progress_bar_->hide();
+  pause_button_->hide();
   cancel_button_->hide();
-  const QString elapsed = FormatElapsed(elapsed_.elapsed());
+  const QString elapsed = FormatElapsed(window_->timer_.ElapsedSeconds());
   std::string error;
   if (last_status_.cancelled()) {
     progress_label_->setText(tr("Global reconstruction cancelled"));

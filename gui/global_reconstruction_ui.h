@@ -1,10 +1,13 @@
 // "Reconstruction > Global reconstruction" in COLMAP 3.8's main window: the
 // menu and toolbar actions, the options dialog, the run in a background
-// thread with its progress in the status bar, and the per-project options
-// file. It is installed into an existing MainWindow (src/exe/gui.cc calls
-// InstallGlobalReconstruction), so COLMAP's GUI code changes only by one
-// friend declaration (patches 0002 and 0003).
+// thread with its progress, pause and cancel in the status bar, its log lines
+// in the Log dock, and the per-project options file. It is installed into an
+// existing MainWindow (src/exe/gui.cc calls InstallGlobalReconstruction), so
+// COLMAP's GUI code changes only by one friend declaration (patches 0002 and
+// 0003).
 #pragma once
+
+#include <glog/logging.h>
 
 #include <QtCore>
 #include <QtWidgets>
@@ -37,6 +40,9 @@ class GlobalReconstructionUi : public QObject {
 
   glomap::GlobalMapperOptions* Options() { return &options_; }
   bool IsRunning() const { return controller_ != nullptr && running_; }
+  // Paused by the user (the worker may still be on its way to the next
+  // check between steps).
+  bool IsPaused() const { return IsRunning() && paused_; }
   // Outcome of the last finished run.
   const glomap::Status& LastStatus() const { return last_status_; }
   // How often the viewer has shown an intermediate or final model.
@@ -61,6 +67,9 @@ class GlobalReconstructionUi : public QObject {
 
   void Run();
   void Cancel();
+  // The status bar's "Pause"/"Resume" button.
+  void TogglePause();
+  void SetPaused(bool paused);
   void ShowOptions();
 
   // On the GUI thread while the worker waits: the model is consistent.
@@ -90,6 +99,7 @@ class GlobalReconstructionUi : public QObject {
   glomap::GlobalMapperOptions options_;
   std::unique_ptr<glomap::GlobalMapperController> controller_;
   bool running_ = false;
+  bool paused_ = false;
   bool cancelling_ = false;
   bool closing_ = false;
   glomap::Status last_status_;
@@ -103,9 +113,11 @@ class GlobalReconstructionUi : public QObject {
 
   QLabel* progress_label_ = nullptr;
   QProgressBar* progress_bar_ = nullptr;
+  QPushButton* pause_button_ = nullptr;
   QPushButton* cancel_button_ = nullptr;
   QTimer* progress_timer_ = nullptr;
-  QElapsedTimer elapsed_;
+  // Copies glog's lines into the Log dock (installed for our lifetime).
+  std::unique_ptr<google::LogSink> log_sink_;
 
   std::vector<std::pair<QAction*, bool>> locked_actions_;
 };

@@ -1,9 +1,10 @@
 // "Reconstruction > Global reconstruction" in a real COLMAP MainWindow, as a
 // user drives it: open a project (`colmap gui --project_path ...`), click the
 // menu entry, wait, look at the models, the statistics window, File > Export,
-// cancel, and take a screenshot. Runs under Xvfb with Mesa (see
-// gui/CMakeLists.txt); the cases on fountain-P11 skip when the shared
-// datasets are absent, the cancel case runs on a synthetic project.
+// the Log dock and the clock, pause, resume, cancel, and take a screenshot.
+// Runs under Xvfb with Mesa (see gui/CMakeLists.txt); the cases on
+// fountain-P11 skip when the shared datasets are absent, the cancel and pause
+// cases run on synthetic projects.
 #include <gtest/gtest.h>
 
 #include <QtWidgets>
@@ -59,6 +60,31 @@ std::string WriteProject(const std::string& test_dir,
   const std::string project_path =
       (fs::path(test_dir) / "project.ini").string();
   options.Write(project_path);
+  return project_path;
+}
+
+// A project on a synthetic scene of `num_images` images (no image files: the
+// pipeline reads only the database), for runs that must last a few seconds.
+// The pairs are verified against the true geometry: COLMAP's own two-view
+// estimation would take a minute and a half for 100 images here.
+std::string WriteSyntheticProject(const std::string& test_dir, int num_images) {
+  const fs::path database_path = fs::path(test_dir) / "database.db";
+  const fs::path image_path = fs::path(test_dir) / "images";
+  fs::create_directories(image_path);
+  glomap::SyntheticSceneOptions scene;
+  scene.num_images = num_images;
+  scene.random_seed = 5;
+  scene.verification = "ground_truth";
+  Reconstruction ground_truth;
+  const glomap::Status written =
+      glomap::WriteSyntheticScene(scene, database_path.string(), &ground_truth);
+  EXPECT_TRUE(written.ok()) << written.message();
+  OptionManager project;
+  project.AddAllOptions();
+  *project.database_path = database_path.string();
+  *project.image_path = image_path.string();
+  const std::string project_path = test_dir + "/project.ini";
+  project.Write(project_path);
   return project_path;
 }
 
@@ -128,6 +154,46 @@ class ModalDialogHandler {
   QTimer timer_;
   int num_handled_ = 0;
 };
+
+// The visible status bar labels, one per line.
+QString StatusBarText(QMainWindow* window) {
+  QString text;
+  for (QLabel* label : window->statusBar()->findChildren<QLabel*>()) {
+    if (label->isVisible()) text += label->text() + "\n";
+  }
+  return text;
+}
+
+// The status bar label whose text starts with `prefix`, or "".
+QString StatusBarLabel(QMainWindow* window, const QString& prefix) {
+  for (QLabel* label : window->statusBar()->findChildren<QLabel*>()) {
+    if (label->isVisible() && label->text().startsWith(prefix)) {
+      return label->text();
+    }
+  }
+  return "";
+}
+
+// The visible status bar button labelled `text`, or null.
+QPushButton* StatusBarButton(QMainWindow* window, const QString& text) {
+  for (QPushButton* button :
+       window->statusBar()->findChildren<QPushButton*>()) {
+    if (button->text() == text && button->isVisible()) return button;
+  }
+  return nullptr;
+}
+
+// What the Log dock shows (COLMAP's LogWidget: a QPlainTextEdit in the dock
+// titled "Log").
+QString LogDockText(QMainWindow* window) {
+  for (QDockWidget* dock : window->findChildren<QDockWidget*>()) {
+    if (dock->windowTitle() != "Log") continue;
+    if (QPlainTextEdit* text = dock->findChild<QPlainTextEdit*>()) {
+      return text->toPlainText();
+    }
+  }
+  return "";
+}
 
 // Text of the statistics window's row `name`, or "" if absent.
 QString StatisticsValue(QMainWindow* window, const QString& name) {
@@ -362,22 +428,8 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
 TEST(GlobalReconstructionGui, CancelStopsMidRunWithinASecond) {
   const std::string test_dir =
       glomap::testing::CreateTestDir("global_reconstruction_gui_cancel");
-  const fs::path database_path = fs::path(test_dir) / "database.db";
-  const fs::path image_path = fs::path(test_dir) / "images";
-  fs::create_directories(image_path);
-  glomap::SyntheticSceneOptions scene;
-  scene.num_images = 100;
-  scene.random_seed = 5;
-  Reconstruction ground_truth;
-  const glomap::Status written =
-      glomap::WriteSyntheticScene(scene, database_path.string(), &ground_truth);
-  ASSERT_TRUE(written.ok()) << written.message();
-  OptionManager project;
-  project.AddAllOptions();
-  *project.database_path = database_path.string();
-  *project.image_path = image_path.string();
-  const std::string project_path = test_dir + "/project.ini";
-  project.Write(project_path);
+  const std::string project_path = WriteSyntheticProject(test_dir, 100);
+  ASSERT_FALSE(HasFailure());
 
   OptionManager options;
   std::string import_path;
@@ -394,13 +446,7 @@ TEST(GlobalReconstructionGui, CancelStopsMidRunWithinASecond) {
     }
     return false;
   });
-  auto status_bar_text = [&]() {
-    QString text;
-    for (QLabel* label : window.statusBar()->findChildren<QLabel*>()) {
-      if (label->isVisible()) text += label->text() + "\n";
-    }
-    return text;
-  };
+  auto status_bar_text = [&]() { return StatusBarText(&window); };
 
   for (const char* stage :
        {"Relative poses", "Global positioning", "Bundle adjustment"}) {
@@ -411,11 +457,7 @@ TEST(GlobalReconstructionGui, CancelStopsMidRunWithinASecond) {
         [&]() { return status_bar_text().contains(stage) || !ui->IsRunning(); },
         kRunTimeoutMs));
     ASSERT_TRUE(ui->IsRunning()) << "The run ended before " << stage;
-    QPushButton* cancel = nullptr;
-    for (QPushButton* button :
-         window.statusBar()->findChildren<QPushButton*>()) {
-      if (button->text() == "Cancel" && button->isVisible()) cancel = button;
-    }
+    QPushButton* cancel = StatusBarButton(&window, "Cancel");
     ASSERT_NE(cancel, nullptr);
     QElapsedTimer cancel_timer;
     cancel_timer.start();
@@ -430,6 +472,210 @@ TEST(GlobalReconstructionGui, CancelStopsMidRunWithinASecond) {
     EXPECT_TRUE(ui->RunAction()->isEnabled());
   }
   EXPECT_TRUE(messages.isEmpty()) << messages.join("\n").toStdString();
+}
+
+// Seconds shown by the status bar's "Time dd:hh:mm:ss" label.
+int TimeLabelSeconds(const QString& text) {
+  const QStringList parts = text.section(' ', 1, 1).split(':');
+  if (parts.size() != 4) return -1;
+  return ((parts[0].toInt() * 24 + parts[1].toInt()) * 60 + parts[2].toInt()) *
+             60 +
+         parts[3].toInt();
+}
+
+// What the user sees of a run besides the model: the Log dock shows the
+// pipeline's glog lines as the command prints them, while they are printed;
+// the status bar's "Time" counts; "Pause" holds the run at its next check
+// (neither the stage, the log nor the clock moves) until "Resume", and the
+// run then ends with its models.
+TEST(GlobalReconstructionGui, LogTimeAndPauseFollowTheRun) {
+  const std::string test_dir =
+      glomap::testing::CreateTestDir("global_reconstruction_gui_pause");
+  const std::string project_path = WriteSyntheticProject(test_dir, 60);
+  ASSERT_FALSE(HasFailure());
+  OptionManager options;
+  std::string import_path;
+  ParseGuiArguments(project_path, &options, &import_path);
+  MainWindow window(options);
+  GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
+  window.show();
+  QStringList messages;
+  ModalDialogHandler message_boxes([&](QWidget* modal) {
+    if (QMessageBox* box = qobject_cast<QMessageBox*>(modal)) {
+      messages << box->text();
+      box->reject();
+      return true;
+    }
+    return false;
+  });
+  const QString time_zero = "Time 00:00:00:00";
+  auto time_label = [&]() { return StatusBarLabel(&window, "Time "); };
+  auto progress_label = [&]() {
+    return StatusBarLabel(&window, "Global reconstruction");
+  };
+
+  QElapsedTimer run_timer;
+  run_timer.start();
+  ui->RunAction()->trigger();
+  ASSERT_TRUE(ui->IsRunning());
+  EXPECT_EQ(time_label(), time_zero);
+  ASSERT_TRUE(WaitUntil(
+      [&]() {
+        return LogDockText(&window).contains("Stage Database:") ||
+               !ui->IsRunning();
+      },
+      kRunTimeoutMs));
+  EXPECT_TRUE(ui->IsRunning()) << "The log appeared only after the run";
+  ASSERT_TRUE(
+      WaitUntil([&]() { return time_label() != time_zero || !ui->IsRunning(); },
+                kRunTimeoutMs));
+  ASSERT_TRUE(ui->IsRunning()) << "The clock did not count during the run";
+
+  // A second into the run: in "Relative poses", the longest stage here.
+  QPushButton* pause = StatusBarButton(&window, "Pause");
+  ASSERT_NE(pause, nullptr);
+  QElapsedTimer pause_timer;
+  pause_timer.start();
+  pause->click();
+  EXPECT_EQ(pause->text(), "Resume");
+  EXPECT_TRUE(ui->IsPaused());
+  ASSERT_TRUE(
+      WaitUntil([&]() { return progress_label().contains(", paused"); }, 5000))
+      << progress_label().toStdString();
+  printf("Pausing took %lld ms: %s\n", pause_timer.elapsed(),
+         progress_label().toStdString().c_str());
+  // Lines logged just before the pause reach the widget within its 100 ms
+  // flush.
+  ProcessEventsFor(300);
+  const QString paused_progress = progress_label();
+  const QString paused_time = time_label();
+  // "Time dd:hh:mm:ss" and our "— mm:ss" show the same clock.
+  const QStringList progress_time =
+      paused_progress.section(QChar(0x2014), 1).trimmed().split(':');
+  ASSERT_EQ(progress_time.size(), 2) << paused_progress.toStdString();
+  EXPECT_EQ(TimeLabelSeconds(paused_time),
+            progress_time[0].toInt() * 60 + progress_time[1].toInt())
+      << paused_time.toStdString();
+  const QString paused_log = LogDockText(&window);
+  ProcessEventsFor(1500);
+  EXPECT_TRUE(ui->IsRunning());
+  EXPECT_EQ(progress_label(), paused_progress) << "The run went on";
+  EXPECT_EQ(time_label(), paused_time) << "The clock counted the pause";
+  EXPECT_EQ(LogDockText(&window), paused_log) << "The run went on";
+
+  pause->click();
+  EXPECT_EQ(pause->text(), "Pause");
+  EXPECT_FALSE(ui->IsPaused());
+  ASSERT_TRUE(WaitUntil([&]() { return !ui->IsRunning(); }, kRunTimeoutMs));
+  const qint64 run_ms = run_timer.elapsed();
+  ASSERT_TRUE(ui->LastStatus().ok()) << ui->LastStatus().message();
+  EXPECT_GE(ui->Models().Size(), 1u);
+  printf("Run with a pause took %.1f s; %s\n", run_ms / 1000.0,
+         StatusBarText(&window).simplified().toStdString().c_str());
+
+  // Every stage's line, once each (nothing reached the dock twice), in
+  // glog's format as the command prints it. The widget shows its queue
+  // every 100 ms.
+  ASSERT_TRUE(WaitUntil(
+      [&]() { return LogDockText(&window).contains("Global mapper finished"); },
+      2000));
+  const QString log = LogDockText(&window);
+  for (const char* stage :
+       {"Database", "Relative poses", "Global positioning", "Bundle adjustment",
+        "Retriangulation", "Camera clustering"}) {
+    EXPECT_EQ(log.count(QString("] Stage %1: ").arg(stage)), 1) << stage;
+  }
+  EXPECT_TRUE(
+      log.contains(QRegularExpression(R"(^I\d{4,8} \d\d:\d\d:\d\d\.\d{6} +\d+ )"
+                                      R"(global_mapper\.cc:\d+\] Stage )"
+                                      R"(Retriangulation: )",
+                                      QRegularExpression::MultilineOption)))
+      << log.toStdString();
+
+  // The clock stopped with the run and did not count the pause.
+  const QString final_time = time_label();
+  ProcessEventsFor(1200);
+  EXPECT_EQ(time_label(), final_time);
+  EXPECT_GE(TimeLabelSeconds(final_time), 1);
+  EXPECT_LE(TimeLabelSeconds(final_time), run_ms / 1000.0 - 1.4)
+      << final_time.toStdString();
+  EXPECT_TRUE(messages.isEmpty()) << messages.join("\n").toStdString();
+}
+
+// A paused run still stops promptly: Cancel while paused takes under a
+// second, and closing the window while paused does not hang.
+TEST(GlobalReconstructionGui, CancelAndCloseWhilePaused) {
+  const std::string test_dir =
+      glomap::testing::CreateTestDir("global_reconstruction_gui_pause_stop");
+  const std::string project_path = WriteSyntheticProject(test_dir, 60);
+  ASSERT_FALSE(HasFailure());
+  OptionManager options;
+  std::string import_path;
+  ParseGuiArguments(project_path, &options, &import_path);
+  MainWindow window(options);
+  GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
+  window.show();
+  // "Do you really want to quit?" -> Yes; any other message is a failure.
+  QStringList messages;
+  ModalDialogHandler message_boxes([&](QWidget* modal) {
+    if (QMessageBox* box = qobject_cast<QMessageBox*>(modal)) {
+      messages << box->text();
+      if (box->button(QMessageBox::Yes) != nullptr) {
+        box->button(QMessageBox::Yes)->click();
+      } else {
+        box->reject();
+      }
+      return true;
+    }
+    return false;
+  });
+  // Starts a run and pauses it in its third stage.
+  auto run_and_pause = [&]() {
+    ui->RunAction()->trigger();
+    ASSERT_TRUE(ui->IsRunning());
+    ASSERT_TRUE(WaitUntil(
+        [&]() {
+          return StatusBarText(&window).contains("Relative poses") ||
+                 !ui->IsRunning();
+        },
+        kRunTimeoutMs));
+    ASSERT_TRUE(ui->IsRunning()) << "The run ended before Relative poses";
+    QPushButton* pause = StatusBarButton(&window, "Pause");
+    ASSERT_NE(pause, nullptr);
+    pause->click();
+    ASSERT_TRUE(WaitUntil(
+        [&]() { return StatusBarText(&window).contains(", paused"); }, 5000));
+  };
+
+  run_and_pause();
+  if (HasFatalFailure()) return;
+  QPushButton* cancel = StatusBarButton(&window, "Cancel");
+  ASSERT_NE(cancel, nullptr);
+  QElapsedTimer cancel_timer;
+  cancel_timer.start();
+  cancel->click();
+  ASSERT_TRUE(WaitUntil([&]() { return !ui->IsRunning(); }, 60000));
+  printf("Cancel while paused took %lld ms\n", cancel_timer.elapsed());
+  EXPECT_LT(cancel_timer.elapsed(), 1000) << "Cancel is not prompt";
+  EXPECT_TRUE(ui->LastStatus().cancelled()) << ui->LastStatus().message();
+  EXPECT_EQ(ui->Models().Size(), 0u);
+  EXPECT_TRUE(StatusBarText(&window).contains("cancelled"));
+  EXPECT_EQ(StatusBarButton(&window, "Resume"), nullptr);
+  EXPECT_TRUE(messages.isEmpty()) << messages.join("\n").toStdString();
+
+  run_and_pause();
+  if (HasFatalFailure()) return;
+  QElapsedTimer close_timer;
+  close_timer.start();
+  EXPECT_TRUE(window.close());
+  printf("Closing while paused took %lld ms\n", close_timer.elapsed());
+  EXPECT_LT(close_timer.elapsed(), 3000);
+  EXPECT_FALSE(window.isVisible());
+  ProcessEventsFor(200);
+  EXPECT_FALSE(ui->IsRunning());
+  EXPECT_EQ(ui->Models().Size(), 0u);
+  ASSERT_EQ(messages.size(), 1) << messages.join("\n").toStdString();
+  EXPECT_TRUE(messages.front().contains("quit"));
 }
 
 // An exception that escapes a thread the GUI does not own (a Ceres worker)
