@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <map>
 #include <memory>
 #include <set>
@@ -19,6 +18,7 @@
 #include "optim/bundle_adjustment.h"
 #include "util/logging.h"
 #include "util/threading.h"
+#include "util/timer.h"
 
 namespace glomap {
 namespace {
@@ -410,11 +410,6 @@ size_t FilterAndCountChangedTracks(double max_normalized_reproj_error,
   return num_changed;
 }
 
-double SecondsSince(const std::chrono::steady_clock::time_point& start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-      .count();
-}
-
 }  // namespace
 
 bool GlobalBundleAdjustmentOptions::Check() const {
@@ -449,7 +444,8 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
   bool first_round = true;
   for (int level = 0; level < options.num_rounds; ++level) {
     if (interrupt.IsStopped()) return Status::Cancelled();
-    const auto round_start = std::chrono::steady_clock::now();
+    colmap::Timer round_timer;
+    round_timer.Start();
 
     // Points behind a camera make the projection degenerate.
     reconstruction->FilterObservationsWithNegativeDepth();
@@ -511,7 +507,7 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
               << " joint iterations, " << num_changed_tracks << " / "
               << num_tracks << " tracks changed, "
               << reconstruction->NumPoints3D() << " points, "
-              << SecondsSince(round_start) << " s";
+              << round_timer.ElapsedSeconds() << " s";
     if (on_round_done) on_round_done();
     if (converged) break;
   }

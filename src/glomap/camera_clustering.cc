@@ -8,39 +8,10 @@
 #include <unordered_set>
 #include <utility>
 
+#include "glomap/union_find.h"
+
 namespace glomap {
 namespace {
-
-// Union-find over dense indices; the smaller index becomes the root so that
-// the result never depends on the order of unions.
-class DisjointSets {
- public:
-  explicit DisjointSets(size_t size) : parents_(size) {
-    for (size_t i = 0; i < size; ++i) parents_[i] = i;
-  }
-
-  size_t Find(size_t i) {
-    while (parents_[i] != i) {
-      parents_[i] = parents_[parents_[i]];
-      i = parents_[i];
-    }
-    return i;
-  }
-
-  void Union(size_t i, size_t j) {
-    i = Find(i);
-    j = Find(j);
-    if (i == j) return;
-    if (i < j) {
-      parents_[j] = i;
-    } else {
-      parents_[i] = j;
-    }
-  }
-
- private:
-  std::vector<size_t> parents_;
-};
 
 struct Edge {
   size_t idx1;  // Dense indices into the sorted registered image ids.
@@ -108,7 +79,7 @@ std::vector<std::vector<colmap::image_t>> ClusterCameras(
     return std::make_pair(a.idx1, a.idx2) < std::make_pair(b.idx1, b.idx2);
   });
 
-  DisjointSets clusters(image_ids.size());
+  UnionFind<size_t> clusters(image_ids.size());
   if (!edges.empty()) {
     std::vector<double> weights;
     weights.reserve(edges.size());

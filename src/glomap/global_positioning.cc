@@ -264,14 +264,7 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
     colmap::Image& image = reconstruction->Image(image_ids[i]);
     image.SetTvec(-(world_from_cam_rotations[i].transpose() * centers[i]));
   }
-  std::vector<colmap::point3D_t> old_point3D_ids;
-  for (const auto& point3D : reconstruction->Points3D()) {
-    old_point3D_ids.push_back(point3D.first);
-  }
-  std::sort(old_point3D_ids.begin(), old_point3D_ids.end());
-  for (const colmap::point3D_t point3D_id : old_point3D_ids) {
-    reconstruction->DeletePoint3D(point3D_id);
-  }
+  DeleteAllPoints3D(reconstruction);
   size_t num_added_observations = 0;
   for (size_t point_idx = 0; point_idx < num_points; ++point_idx) {
     colmap::Track track;

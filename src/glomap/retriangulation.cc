@@ -1,7 +1,6 @@
 #include "glomap/retriangulation.h"
 
 #include <algorithm>
-#include <chrono>
 #include <iostream>
 #include <limits>
 #include <unordered_set>
@@ -16,6 +15,7 @@
 #include "sfm/incremental_triangulator.h"
 #include "util/logging.h"
 #include "util/threading.h"
+#include "util/timer.h"
 
 namespace glomap {
 namespace {
@@ -75,7 +75,8 @@ Status Retriangulate(const RetriangulationOptions& options,
   if (reconstruction == nullptr) {
     return Status::Error("No reconstruction to retriangulate.");
   }
-  const auto start = std::chrono::steady_clock::now();
+  colmap::Timer timer;
+  timer.Start();
   std::vector<colmap::image_t> registered_ids = reconstruction->RegImageIds();
   std::sort(registered_ids.begin(), registered_ids.end());
   if (registered_ids.size() < 2) {
@@ -198,32 +199,15 @@ Status Retriangulate(const RetriangulationOptions& options,
 
   // Replace the points of `reconstruction` by the new ones. Images share ids
   // and Points2D with `work`, so the tracks carry over unchanged.
-  std::vector<colmap::point3D_t> old_ids;
-  old_ids.reserve(reconstruction->NumPoints3D());
-  for (const auto& point3D : reconstruction->Points3D()) {
-    old_ids.push_back(point3D.first);
-  }
-  std::sort(old_ids.begin(), old_ids.end());
-  for (const colmap::point3D_t point3D_id : old_ids) {
-    reconstruction->DeletePoint3D(point3D_id);
-  }
-  std::vector<colmap::point3D_t> new_ids;
-  new_ids.reserve(work.NumPoints3D());
-  for (const auto& point3D : work.Points3D()) {
-    new_ids.push_back(point3D.first);
-  }
-  std::sort(new_ids.begin(), new_ids.end());
-  for (const colmap::point3D_t point3D_id : new_ids) {
+  const size_t num_old_points3D = DeleteAllPoints3D(reconstruction);
+  for (const colmap::point3D_t point3D_id : SortedPoint3DIds(work)) {
     const colmap::Point3D& point3D = work.Point3D(point3D_id);
     reconstruction->AddPoint3D(point3D.XYZ(), point3D.Track(), point3D.Color());
   }
   LOG(INFO) << "Retriangulation: " << num_pairs << " pairs, "
             << num_triangulated << " points triangulated, "
             << reconstruction->NumPoints3D() << " after refinement ("
-            << old_ids.size() << " before), "
-            << std::chrono::duration<double>(std::chrono::steady_clock::now() -
-                                             start)
-                   .count()
+            << num_old_points3D << " before), " << timer.ElapsedSeconds()
             << " s";
 
   if (options.run_bundle_adjustment) {

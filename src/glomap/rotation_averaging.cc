@@ -17,6 +17,7 @@
 #include <Eigen/SparseCholesky>
 #endif
 
+#include "glomap/union_find.h"
 #include "util/logging.h"
 
 namespace glomap {
@@ -268,22 +269,11 @@ std::vector<Eigen::Quaterniond> InitializeFromSpanningTree(
     return problem.edges[a].tree_weight > problem.edges[b].tree_weight;
   });
 
-  std::vector<int> parent(num_nodes);
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&parent](int i) {
-    while (parent[i] != i) {
-      parent[i] = parent[parent[i]];
-      i = parent[i];
-    }
-    return i;
-  };
+  UnionFind<int> forest(num_nodes);
   std::vector<std::vector<size_t>> tree_edges(num_nodes);
   for (const size_t e : order) {
     const Edge& edge = problem.edges[e];
-    const int a = find(edge.node1);
-    const int b = find(edge.node2);
-    if (a == b) continue;
-    parent[std::max(a, b)] = std::min(a, b);
+    if (!forest.Union(edge.node1, edge.node2)) continue;
     tree_edges[edge.node1].push_back(e);
     tree_edges[edge.node2].push_back(e);
   }
@@ -453,52 +443,6 @@ bool IsUsable(const ImagePair& pair) {
          pair.image_id1 != pair.image_id2;
 }
 
-// Largest connected component of the usable pairs, sorted; ties go to the
-// component containing the smallest image id.
-std::vector<colmap::image_t> LargestUsableComponent(
-    const ViewGraph& view_graph) {
-  std::vector<colmap::image_t> image_ids;
-  for (const auto& [pair_id, pair] : view_graph.Pairs()) {
-    if (!IsUsable(pair)) continue;
-    image_ids.push_back(pair.image_id1);
-    image_ids.push_back(pair.image_id2);
-  }
-  std::sort(image_ids.begin(), image_ids.end());
-  image_ids.erase(std::unique(image_ids.begin(), image_ids.end()),
-                  image_ids.end());
-  std::unordered_map<colmap::image_t, int> index;
-  for (size_t i = 0; i < image_ids.size(); ++i) index[image_ids[i]] = i;
-
-  std::vector<int> parent(image_ids.size());
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&parent](int i) {
-    while (parent[i] != i) {
-      parent[i] = parent[parent[i]];
-      i = parent[i];
-    }
-    return i;
-  };
-  for (const auto& [pair_id, pair] : view_graph.Pairs()) {
-    if (!IsUsable(pair)) continue;
-    const int a = find(index.at(pair.image_id1));
-    const int b = find(index.at(pair.image_id2));
-    // The smaller index is the root, so every root is its component's
-    // smallest image id.
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-  std::vector<int> size(image_ids.size(), 0);
-  for (size_t i = 0; i < image_ids.size(); ++i) ++size[find(i)];
-  int best_root = -1;
-  for (size_t i = 0; i < image_ids.size(); ++i) {
-    if (best_root < 0 || size[i] > size[best_root]) best_root = i;
-  }
-  std::vector<colmap::image_t> component;
-  for (size_t i = 0; i < image_ids.size(); ++i) {
-    if (find(i) == best_root) component.push_back(image_ids[i]);
-  }
-  return component;
-}
-
 Problem BuildProblem(const ViewGraph& view_graph,
                      const std::vector<colmap::image_t>& component) {
   Problem problem;
@@ -578,7 +522,7 @@ Status AverageRotations(const RotationAveragingOptions& options,
   // Rotations of the last solved round, by image id.
   std::unordered_map<colmap::image_t, Eigen::Quaterniond> previous_by_id;
   for (int round = 0; round < options.num_rounds; ++round) {
-    component = LargestUsableComponent(*view_graph);
+    component = view_graph->LargestConnectedComponent(IsUsable);
     if (component.size() < 2) {
       return Status::Error(
           "Rotation averaging: fewer than two images are connected by valid "
@@ -642,7 +586,7 @@ Status AverageRotations(const RotationAveragingOptions& options,
 
   // Rejection may have split off images; keep the largest consistent part.
   const std::vector<colmap::image_t> final_component =
-      LargestUsableComponent(*view_graph);
+      view_graph->LargestConnectedComponent(IsUsable);
   if (final_component.size() < 2) {
     return Status::Error(
         "Rotation averaging: fewer than two images remain after rejecting "

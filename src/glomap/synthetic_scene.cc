@@ -20,8 +20,8 @@
 #include "base/database.h"
 #include "base/pose.h"
 #include "estimators/two_view_geometry.h"
+#include "glomap/parallel_for.h"
 #include "util/random.h"
-#include "util/threading.h"
 
 namespace glomap {
 namespace {
@@ -176,20 +176,6 @@ std::string OptionsError(const SyntheticSceneOptions& options) {
            "most num_images / 2";
   }
   return "";
-}
-
-// Splits [0, n) into chunks run on a pool; `func(begin, end)` must write only
-// to its own slots so that the result does not depend on scheduling.
-void ParallelFor(colmap::ThreadPool* pool, size_t n,
-                 const std::function<void(size_t, size_t)>& func) {
-  const size_t num_chunks = std::min<size_t>(n, pool->NumThreads() * 8);
-  if (num_chunks == 0) return;
-  const size_t chunk = (n + num_chunks - 1) / num_chunks;
-  for (size_t begin = 0; begin < n; begin += chunk) {
-    const size_t end = std::min(n, begin + chunk);
-    pool->AddTask([&func, begin, end]() { func(begin, end); });
-  }
-  pool->Wait();
 }
 
 struct Pose {
@@ -499,7 +485,7 @@ struct Observation {
 std::vector<std::vector<Observation>> ComputeVisibility(
     const Layout& layout, const std::vector<colmap::Camera>& cameras,
     const std::vector<int>& camera_of_image,
-    const std::vector<ScenePoint>& points, colmap::ThreadPool* pool) {
+    const std::vector<ScenePoint>& points, int num_threads) {
   const size_t num_images = layout.poses.size();
   const double min_cos_view = std::cos(layout.max_view_angle_deg * kDegToRad);
   const bool finite_depth = std::isfinite(layout.max_depth);
@@ -523,29 +509,26 @@ std::vector<std::vector<Observation>> ComputeVisibility(
 
   std::vector<std::vector<std::pair<uint32_t, Eigen::Vector2d>>> seen_by(
       points.size());
-  ParallelFor(pool, points.size(), [&](size_t begin, size_t end) {
+  ParallelFor(num_threads, points.size(), [&](size_t p) {
+    const Eigen::Vector3i cell = cell_of(points[p].xyz);
     std::vector<uint32_t> candidates;
-    for (size_t p = begin; p < end; ++p) {
-      const Eigen::Vector3i cell = cell_of(points[p].xyz);
-      candidates.clear();
-      for (int dx = -reach; dx <= reach; ++dx) {
-        for (int dy = -reach; dy <= reach; ++dy) {
-          for (int dz = -reach; dz <= reach; ++dz) {
-            const auto it =
-                images_in_cell.find(key_of(cell + Eigen::Vector3i(dx, dy, dz)));
-            if (it == images_in_cell.end()) continue;
-            candidates.insert(candidates.end(), it->second.begin(),
-                              it->second.end());
-          }
+    for (int dx = -reach; dx <= reach; ++dx) {
+      for (int dy = -reach; dy <= reach; ++dy) {
+        for (int dz = -reach; dz <= reach; ++dz) {
+          const auto it =
+              images_in_cell.find(key_of(cell + Eigen::Vector3i(dx, dy, dz)));
+          if (it == images_in_cell.end()) continue;
+          candidates.insert(candidates.end(), it->second.begin(),
+                            it->second.end());
         }
       }
-      std::sort(candidates.begin(), candidates.end());
-      Eigen::Vector2d pixel;
-      for (const uint32_t i : candidates) {
-        if (ProjectVisible(layout, layout.poses[i], cameras[camera_of_image[i]],
-                           points[p], min_cos_view, &pixel)) {
-          seen_by[p].emplace_back(i, pixel);
-        }
+    }
+    std::sort(candidates.begin(), candidates.end());
+    Eigen::Vector2d pixel;
+    for (const uint32_t i : candidates) {
+      if (ProjectVisible(layout, layout.poses[i], cameras[camera_of_image[i]],
+                         points[p], min_cos_view, &pixel)) {
+        seen_by[p].emplace_back(i, pixel);
       }
     }
   });
@@ -651,26 +634,23 @@ SyntheticImage MakeKeypoints(const SyntheticSceneOptions& options,
 
 // Each image with its `k` nearest images by camera centre, as canonical
 // (smaller index, larger index) pairs, sorted and unique.
-std::vector<std::pair<uint32_t, uint32_t>> SelectPairs(
-    const Layout& layout, size_t k, colmap::ThreadPool* pool) {
+std::vector<std::pair<uint32_t, uint32_t>> SelectPairs(const Layout& layout,
+                                                       size_t k,
+                                                       int num_threads) {
   const size_t num_images = layout.poses.size();
   k = std::min(k, num_images - 1);
   std::vector<std::vector<uint32_t>> neighbors(num_images);
-  ParallelFor(pool, num_images, [&](size_t begin, size_t end) {
+  ParallelFor(num_threads, num_images, [&](size_t i) {
     std::vector<std::pair<double, uint32_t>> distances;
-    for (size_t i = begin; i < end; ++i) {
-      distances.clear();
-      for (size_t j = 0; j < num_images; ++j) {
-        if (j == i) continue;
-        distances.emplace_back(
-            (layout.poses[i].center - layout.poses[j].center).squaredNorm(),
-            static_cast<uint32_t>(j));
-      }
-      std::nth_element(distances.begin(), distances.begin() + (k - 1),
-                       distances.end());
-      for (size_t n = 0; n < k; ++n)
-        neighbors[i].push_back(distances[n].second);
+    for (size_t j = 0; j < num_images; ++j) {
+      if (j == i) continue;
+      distances.emplace_back(
+          (layout.poses[i].center - layout.poses[j].center).squaredNorm(),
+          static_cast<uint32_t>(j));
     }
+    std::nth_element(distances.begin(), distances.begin() + (k - 1),
+                     distances.end());
+    for (size_t n = 0; n < k; ++n) neighbors[i].push_back(distances[n].second);
   });
   std::vector<std::pair<uint32_t, uint32_t>> pairs;
   pairs.reserve(num_images * k);
@@ -1220,7 +1200,6 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
     return Status::Error("WriteSyntheticScene needs an empty reconstruction.");
   }
 
-  colmap::ThreadPool pool(options.num_threads);
   const size_t num_images = static_cast<size_t>(options.num_images);
 
   // Cameras and poses.
@@ -1250,8 +1229,8 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
   std::vector<ScenePoint> points(num_points);  // the patch may add more
   std::mt19937 point_rng = MakeRng(options.random_seed, kPointStream);
   for (ScenePoint& point : points) point = layout.sample_point(point_rng);
-  std::vector<std::vector<Observation>> observations =
-      ComputeVisibility(layout, true_cameras, camera_of_image, points, &pool);
+  std::vector<std::vector<Observation>> observations = ComputeVisibility(
+      layout, true_cameras, camera_of_image, points, options.num_threads);
   if (!roles.group.empty() && options.weak_group_num_patch_points > 0) {
     AddPrivatePatch(options, layout, true_cameras, camera_of_image, roles,
                     &points, &observations);
@@ -1260,19 +1239,17 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
   // Keypoints, each image with its own random stream.
   std::vector<SyntheticImage> images(num_images);
   std::vector<std::vector<Eigen::Vector2d>> normalized(num_images);
-  ParallelFor(&pool, num_images, [&](size_t begin, size_t end) {
-    for (size_t i = begin; i < end; ++i) {
-      std::mt19937 rng = MakeRng(options.random_seed, kKeypointStream, i);
-      const colmap::Camera& camera = true_cameras[camera_of_image[i]];
-      images[i] =
-          MakeKeypoints(options, camera, std::move(observations[i]), rng);
-    }
+  ParallelFor(options.num_threads, num_images, [&](size_t i) {
+    std::mt19937 rng = MakeRng(options.random_seed, kKeypointStream, i);
+    const colmap::Camera& camera = true_cameras[camera_of_image[i]];
+    images[i] = MakeKeypoints(options, camera, std::move(observations[i]), rng);
   });
   observations.clear();
 
   // Which pairs are matched.
-  std::vector<std::pair<uint32_t, uint32_t>> pair_idxs = SelectPairs(
-      layout, static_cast<size_t>(options.max_pairs_per_image), &pool);
+  std::vector<std::pair<uint32_t, uint32_t>> pair_idxs =
+      SelectPairs(layout, static_cast<size_t>(options.max_pairs_per_image),
+                  options.num_threads);
   if (!roles.long_baseline.empty()) {
     RemoveShortBaselinePairs(layout, roles.long_baseline,
                              options.long_baseline_num_skipped_neighbors,
@@ -1353,13 +1330,11 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
   }
 
   if (options.verification == "ground_truth") {
-    ParallelFor(&pool, num_images, [&](size_t begin, size_t end) {
-      for (size_t i = begin; i < end; ++i) {
-        const colmap::Camera& camera = true_cameras[camera_of_image[i]];
-        normalized[i].reserve(images[i].keypoints.size());
-        for (const Eigen::Vector2d& keypoint : images[i].keypoints) {
-          normalized[i].push_back(camera.ImageToWorld(keypoint));
-        }
+    ParallelFor(options.num_threads, num_images, [&](size_t i) {
+      const colmap::Camera& camera = true_cameras[camera_of_image[i]];
+      normalized[i].reserve(images[i].keypoints.size());
+      for (const Eigen::Vector2d& keypoint : images[i].keypoints) {
+        normalized[i].push_back(camera.ImageToWorld(keypoint));
       }
     });
   }
@@ -1368,45 +1343,43 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
   const colmap::TwoViewGeometry::Options verification_options =
       MatcherVerificationOptions();
   std::vector<SyntheticPair> pairs(pair_idxs.size());
-  ParallelFor(&pool, pair_idxs.size(), [&](size_t begin, size_t end) {
-    for (size_t p = begin; p < end; ++p) {
-      const auto [i, j] = pair_idxs[p];
-      std::mt19937 rng = MakeRng(options.random_seed, kPairStream, p);
-      SyntheticPair& pair = pairs[p];
-      const WrongRotationPair* wrong = wrong_pair_of[p];
-      pair.raw_matches = MakeRawMatches(
-          wrong != nullptr ? wrong->matches : TrueMatches(images[i], images[j]),
-          images[i], images[j],
-          wrong != nullptr ? std::numeric_limits<size_t>::max()
-                           : max_true_matches[p],
-          options.wrong_match_ratio, rng);
-      if (pair.raw_matches.size() < static_cast<size_t>(kMinNumInliers)) {
-        continue;  // COLMAP's verifier skips these (config UNDEFINED).
-      }
-      const colmap::Camera& camera1 = database_cameras[camera_of_image[i]];
-      const colmap::Camera& camera2 = database_cameras[camera_of_image[j]];
-      if (options.verification == "colmap") {
-        // RANSAC draws from COLMAP's thread-local generator: reseed it per
-        // pair so that the result does not depend on thread scheduling.
-        colmap::SetPRNGSeed(static_cast<unsigned>(
-            MakeRng(options.random_seed, kRansacStream, p)()));
-        pair.geometry.Estimate(camera1, images[i].keypoints, camera2,
-                               images[j].keypoints, pair.raw_matches,
-                               verification_options);
-      } else {
-        // A wrong-rotation pair is verified against the turned pose, as the
-        // matches are consistent with it.
-        const Pose& pose1 = wrong != nullptr && wrong->turned_first
-                                ? wrong->turned_pose
-                                : layout.poses[i];
-        const Pose& pose2 = wrong != nullptr && !wrong->turned_first
-                                ? wrong->turned_pose
-                                : layout.poses[j];
-        pair.geometry = VerifyWithGroundTruth(
-            pair.raw_matches, pose1, pose2, true_cameras[camera_of_image[i]],
-            true_cameras[camera_of_image[j]], normalized[i], normalized[j],
-            camera1.HasPriorFocalLength() && camera2.HasPriorFocalLength());
-      }
+  ParallelFor(options.num_threads, pair_idxs.size(), [&](size_t p) {
+    const auto [i, j] = pair_idxs[p];
+    std::mt19937 rng = MakeRng(options.random_seed, kPairStream, p);
+    SyntheticPair& pair = pairs[p];
+    const WrongRotationPair* wrong = wrong_pair_of[p];
+    pair.raw_matches = MakeRawMatches(
+        wrong != nullptr ? wrong->matches : TrueMatches(images[i], images[j]),
+        images[i], images[j],
+        wrong != nullptr ? std::numeric_limits<size_t>::max()
+                         : max_true_matches[p],
+        options.wrong_match_ratio, rng);
+    if (pair.raw_matches.size() < static_cast<size_t>(kMinNumInliers)) {
+      return;  // COLMAP's verifier skips these (config UNDEFINED).
+    }
+    const colmap::Camera& camera1 = database_cameras[camera_of_image[i]];
+    const colmap::Camera& camera2 = database_cameras[camera_of_image[j]];
+    if (options.verification == "colmap") {
+      // RANSAC draws from COLMAP's thread-local generator: reseed it per
+      // pair so that the result does not depend on thread scheduling.
+      colmap::SetPRNGSeed(static_cast<unsigned>(
+          MakeRng(options.random_seed, kRansacStream, p)()));
+      pair.geometry.Estimate(camera1, images[i].keypoints, camera2,
+                             images[j].keypoints, pair.raw_matches,
+                             verification_options);
+    } else {
+      // A wrong-rotation pair is verified against the turned pose, as the
+      // matches are consistent with it.
+      const Pose& pose1 = wrong != nullptr && wrong->turned_first
+                              ? wrong->turned_pose
+                              : layout.poses[i];
+      const Pose& pose2 = wrong != nullptr && !wrong->turned_first
+                              ? wrong->turned_pose
+                              : layout.poses[j];
+      pair.geometry = VerifyWithGroundTruth(
+          pair.raw_matches, pose1, pose2, true_cameras[camera_of_image[i]],
+          true_cameras[camera_of_image[j]], normalized[i], normalized[j],
+          camera1.HasPriorFocalLength() && camera2.HasPriorFocalLength());
     }
   });
 

@@ -10,40 +10,9 @@
 #include <utility>
 #include <vector>
 
+#include "glomap/union_find.h"
+
 namespace glomap {
-namespace {
-
-// Union-find over dense feature indices. Union keeps the smaller root, so the
-// root of a track is its smallest feature whatever order the pairs come in.
-class FeatureUnionFind {
- public:
-  explicit FeatureUnionFind(uint32_t num_features) : parent_(num_features) {
-    std::iota(parent_.begin(), parent_.end(), 0);
-  }
-
-  uint32_t Find(uint32_t x) {
-    while (parent_[x] != x) {
-      parent_[x] = parent_[parent_[x]];  // Path halving.
-      x = parent_[x];
-    }
-    return x;
-  }
-
-  void Union(uint32_t a, uint32_t b) {
-    a = Find(a);
-    b = Find(b);
-    if (a < b) {
-      parent_[b] = a;
-    } else if (b < a) {
-      parent_[a] = b;
-    }
-  }
-
- private:
-  std::vector<uint32_t> parent_;
-};
-
-}  // namespace
 
 bool TrackEstablishmentOptions::Check() const {
   return max_intra_image_distance_px >= 0 && min_num_views_per_track >= 2 &&
@@ -77,7 +46,9 @@ TrackStore EstablishTracks(const TrackEstablishmentOptions& options,
   }
   const uint32_t num_features = static_cast<uint32_t>(feature_offsets.back());
 
-  FeatureUnionFind union_find(num_features);
+  // The root of a track is its smallest feature whatever order the pairs
+  // come in; uint32_t indices halve the memory of this per-keypoint array.
+  UnionFind<uint32_t> union_find(num_features);
   std::vector<uint8_t> is_matched(num_features, 0);
   for (const auto& [pair_id, pair] : view_graph.Pairs()) {
     if (!pair.is_valid) continue;

@@ -47,17 +47,6 @@ std::unordered_map<colmap::image_t, RegisteredView> RegisteredViews(
   return views;
 }
 
-std::vector<colmap::point3D_t> SortedPoint3DIds(
-    const colmap::Reconstruction& reconstruction) {
-  std::vector<colmap::point3D_t> ids;
-  ids.reserve(reconstruction.NumPoints3D());
-  for (const auto& point3D : reconstruction.Points3D()) {
-    ids.push_back(point3D.first);
-  }
-  std::sort(ids.begin(), ids.end());
-  return ids;
-}
-
 // Removes every observation (in a registered image) for which
 // `is_outlier(view, keypoint_xy, point_xyz)` holds. A point left with fewer
 // than two observations is deleted as a whole (COLMAP cannot hold it).
@@ -96,6 +85,26 @@ size_t FilterObservations(colmap::Reconstruction* reconstruction,
 }
 
 }  // namespace
+
+std::vector<colmap::point3D_t> SortedPoint3DIds(
+    const colmap::Reconstruction& reconstruction) {
+  std::vector<colmap::point3D_t> ids;
+  ids.reserve(reconstruction.NumPoints3D());
+  for (const auto& point3D : reconstruction.Points3D()) {
+    ids.push_back(point3D.first);
+  }
+  std::sort(ids.begin(), ids.end());
+  return ids;
+}
+
+size_t DeleteAllPoints3D(colmap::Reconstruction* reconstruction) {
+  const std::vector<colmap::point3D_t> point3D_ids =
+      SortedPoint3DIds(*reconstruction);
+  for (const colmap::point3D_t point3D_id : point3D_ids) {
+    reconstruction->DeletePoint3D(point3D_id);
+  }
+  return point3D_ids.size();
+}
 
 size_t FilterObservationsByAngularError(
     colmap::Reconstruction* reconstruction,

@@ -11,10 +11,21 @@
 #pragma once
 
 #include <cstddef>
+#include <vector>
 
 #include "base/reconstruction.h"
 
 namespace glomap {
+
+// The ids of all 3D points, ascending: the order in which every filter here
+// visits them, so that results never depend on hash-map order.
+std::vector<colmap::point3D_t> SortedPoint3DIds(
+    const colmap::Reconstruction& reconstruction);
+
+// Deletes every 3D point, in ascending id order (the order decides the state
+// of COLMAP's point hash map, and with it the order in which points added
+// later are iterated and written). Returns the number of points deleted.
+size_t DeleteAllPoints3D(colmap::Reconstruction* reconstruction);
 
 // Removes observations whose observed ray (Camera::ImageToWorld of the
 // keypoint) and the ray from the camera centre to the 3D point are more than

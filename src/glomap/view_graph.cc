@@ -1,13 +1,35 @@
 #include "glomap/view_graph.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
-#include <numeric>
 #include <unordered_map>
 #include <unordered_set>
 
 #include "base/database.h"
+#include "base/pose.h"
+#include "glomap/union_find.h"
 
 namespace glomap {
+namespace {
+
+// Image ids that take part in at least one pair for which `is_edge` holds,
+// sorted.
+std::vector<colmap::image_t> ImagesOfPairs(
+    const std::map<colmap::image_pair_t, ImagePair>& pairs,
+    const std::function<bool(const ImagePair&)>& is_edge) {
+  std::vector<colmap::image_t> image_ids;
+  for (const auto& [pair_id, pair] : pairs) {
+    if (!is_edge(pair)) continue;
+    image_ids.push_back(pair.image_id1);
+    image_ids.push_back(pair.image_id2);
+  }
+  std::sort(image_ids.begin(), image_ids.end());
+  image_ids.erase(std::unique(image_ids.begin(), image_ids.end()),
+                  image_ids.end());
+  return image_ids;
+}
+
+}  // namespace
 
 colmap::Image KeypointImage(const colmap::Image& source) {
   colmap::Image image;
@@ -56,13 +78,12 @@ ImagePair& ViewGraph::AddPair(ImagePair pair) {
     if (pair.H.determinant() != 0) pair.H = pair.H.inverse().eval();
     // Invert the relative pose: cam1_from_cam2.
     const Eigen::Vector4d q = pair.qvec2_from_1;
-    pair.qvec2_from_1 = Eigen::Vector4d(q(0), -q(1), -q(2), -q(3));
-    // R^T * -t without pulling pose helpers into this header-level type.
-    const double w = q(0), x = q(1), y = q(2), z = q(3);
-    Eigen::Matrix3d R;
-    R << 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
-        2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-        2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y);
+    pair.qvec2_from_1 = colmap::InvertQuaternion(q);
+    // -R^T t. Eigen's matrix, not colmap::QuaternionToRotationMatrix: that
+    // one normalizes q again, which changes the last bits of a third of the
+    // stored unit quaternions.
+    const Eigen::Matrix3d R =
+        Eigen::Quaterniond(q(0), q(1), q(2), q(3)).toRotationMatrix();
     pair.tvec2_from_1 = -R.transpose() * pair.tvec2_from_1;
   }
   const colmap::image_pair_t pair_id =
@@ -79,44 +100,24 @@ size_t ViewGraph::NumValidPairs() const {
 }
 
 std::vector<colmap::image_t> ViewGraph::ImagesWithValidPairs() const {
-  std::vector<colmap::image_t> image_ids;
-  for (const auto& [pair_id, pair] : pairs_) {
-    if (!pair.is_valid) continue;
-    image_ids.push_back(pair.image_id1);
-    image_ids.push_back(pair.image_id2);
-  }
-  std::sort(image_ids.begin(), image_ids.end());
-  image_ids.erase(std::unique(image_ids.begin(), image_ids.end()),
-                  image_ids.end());
-  return image_ids;
+  return ImagesOfPairs(pairs_, IsValid);
 }
 
-std::vector<std::vector<colmap::image_t>> ViewGraph::ConnectedComponents()
-    const {
-  const std::vector<colmap::image_t> image_ids = ImagesWithValidPairs();
+std::vector<std::vector<colmap::image_t>> ViewGraph::ConnectedComponents(
+    const std::function<bool(const ImagePair&)>& is_edge) const {
+  const std::vector<colmap::image_t> image_ids = ImagesOfPairs(pairs_, is_edge);
   std::unordered_map<colmap::image_t, size_t> index;
   for (size_t i = 0; i < image_ids.size(); ++i) index[image_ids[i]] = i;
 
-  // Union-find over dense indices, with path halving.
-  std::vector<size_t> parent(image_ids.size());
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&parent](size_t i) {
-    while (parent[i] != i) {
-      parent[i] = parent[parent[i]];
-      i = parent[i];
-    }
-    return i;
-  };
+  UnionFind<size_t> union_find(image_ids.size());
   for (const auto& [pair_id, pair] : pairs_) {
-    if (!pair.is_valid) continue;
-    const size_t a = find(index.at(pair.image_id1));
-    const size_t b = find(index.at(pair.image_id2));
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    if (!is_edge(pair)) continue;
+    union_find.Union(index.at(pair.image_id1), index.at(pair.image_id2));
   }
 
   std::map<size_t, std::vector<colmap::image_t>> by_root;
   for (size_t i = 0; i < image_ids.size(); ++i) {
-    by_root[find(i)].push_back(image_ids[i]);
+    by_root[union_find.Find(i)].push_back(image_ids[i]);
   }
   std::vector<std::vector<colmap::image_t>> components;
   for (auto& [root, members] : by_root) components.push_back(members);
@@ -127,8 +128,9 @@ std::vector<std::vector<colmap::image_t>> ViewGraph::ConnectedComponents()
   return components;
 }
 
-std::vector<colmap::image_t> ViewGraph::LargestConnectedComponent() const {
-  auto components = ConnectedComponents();
+std::vector<colmap::image_t> ViewGraph::LargestConnectedComponent(
+    const std::function<bool(const ImagePair&)>& is_edge) const {
+  auto components = ConnectedComponents(is_edge);
   if (components.empty()) return {};
   return components.front();
 }

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <map>
 #include <unordered_set>
 #include <vector>
@@ -74,6 +75,8 @@ colmap::CorrespondenceGraph& MutableCorrespondenceGraph(
 
 class ViewGraph {
  public:
+  static bool IsValid(const ImagePair& pair) { return pair.is_valid; }
+
   std::map<colmap::image_pair_t, ImagePair>& Pairs() { return pairs_; }
   const std::map<colmap::image_pair_t, ImagePair>& Pairs() const {
     return pairs_;
@@ -88,12 +91,16 @@ class ViewGraph {
   // Image ids that take part in at least one valid pair, sorted.
   std::vector<colmap::image_t> ImagesWithValidPairs() const;
 
-  // The largest connected component of the graph of valid pairs, as sorted
-  // image ids. Ties are broken towards the component with the smallest id.
-  std::vector<colmap::image_t> LargestConnectedComponent() const;
+  // The largest connected component of the graph of the pairs for which
+  // `is_edge` holds (by default the valid pairs), as sorted image ids. Ties
+  // are broken towards the component with the smallest id.
+  std::vector<colmap::image_t> LargestConnectedComponent(
+      const std::function<bool(const ImagePair&)>& is_edge = IsValid) const;
 
-  // All connected components of valid pairs, largest first, each sorted.
-  std::vector<std::vector<colmap::image_t>> ConnectedComponents() const;
+  // All connected components of the same graph, largest first, each sorted;
+  // equal sizes keep the order of their smallest image id.
+  std::vector<std::vector<colmap::image_t>> ConnectedComponents(
+      const std::function<bool(const ImagePair&)>& is_edge = IsValid) const;
 
   // Marks every pair with an image outside `image_ids` as invalid; returns
   // the number of pairs newly invalidated.
