@@ -1,19 +1,35 @@
 #!/usr/bin/env python3
 """Side-by-side benchmark of our `colmap global_mapper` and COLMAP's stock
-incremental `mapper`.
+incremental `mapper` (and, with --reference_colmap, another COLMAP build's
+`global_mapper`, e.g. upstream COLMAP 4.x).
 
 For every dataset folder (a `database.db`, optionally an `images/` folder and a
-ground-truth model in `gt/`), both mappers run one after the other, each on its
-own copy of the database. Recorded per run: wall time (and, for the global
+ground-truth model in `gt/`), the mappers run one after the other, each run on
+its own copy of the database in a fresh output folder. With --repeats N every
+mapper runs N times per input, alternating (ours, stock, reference, ours,
+stock, ...) so that a change of the machine's load hits all of them alike; the
+table shows the median wall time with its spread (min-max) and the medians of
+the other figures. Recorded per run: wall time (and, for the global
 mapper, the time of each stage from its log lines `Stage <name>: <seconds> s`),
 peak memory, registered images, mean reprojection error and mean track length
 (`colmap model_analyzer`), and the ground-truth metrics (`colmap
-model_evaluator`: pairwise pose AUC at 1/3/5/10 degrees, camera position
-errors).
+model_evaluator`: pairwise pose AUC at 0.5/1/3/5/10 degrees -- 0.5 only
+with an evaluator that has --pose_thresholds --, camera position errors).
 
 With --seeds, our global mapper runs once per seed
 (`--GlobalMapper.random_seed`); the stock mapper runs once per dataset. The
-main table then shows, for ours, the median over the seeds (and the spread).
+main table then shows, for ours, the median over all its runs (seeds x
+repeats) and the spread.
+
+The reports start with the provenance: the exact command (shell-quoted
+sys.argv) and its working folder, the source commit (+dirty with changes to
+tracked files), build type (CMAKE_BUILD_TYPE of the CMakeCache.txt beside the
+binary's bin/ folder) and path of each binary, and the machine (CPU model,
+cores, memory, kernel).
+
+Synthetic scenes (--synthetic N) are cached under <output_dir>/scenes/ with a
+stamp file (the generator's options and the sha256 of make_synthetic_scene);
+a scene whose stamp differs is generated anew.
 
 A "bars" table checks every run of ours against the acceptance bars of issue
 10: all images registered; AUC@3 at least the better of the reference mappers'
@@ -41,6 +57,7 @@ Only the Python standard library is used (gnuplot draws the plots).
 
 import argparse
 import datetime
+import hashlib
 import json
 import os
 import platform
@@ -59,11 +76,28 @@ REPO_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_COLMAP = os.path.join(REPO_DIR, "build", "bin", "colmap")
 DEFAULT_OUTPUT = os.path.join(REPO_DIR, "build", "benchmark")
 DEFAULT_DATASETS = os.path.join(os.path.dirname(REPO_DIR), "shared", "datasets")
-AUC_THRESHOLDS = ["1", "3", "5", "10"]
+# Pose AUC thresholds in degrees (upstream's benchmark reports 0.5/1/5/10).
+AUC_THRESHOLDS = ["0.5", "1", "3", "5", "10"]
+# model_evaluator's option for the pose AUC thresholds (its default is
+# 1,3,5,10); passed only when its -h lists it.
+POSE_THRESHOLDS_OPTION = "--pose_thresholds"
 MAPPERS = {
     "global": "global_mapper",
     "incremental": "mapper",
+    "reference": "global_mapper",
 }
+# Order of the mappers within one repeat, and their labels.
+MAPPER_ORDER = ["global", "incremental", "reference"]
+MAPPER_LABELS = {
+    "global": "ours `global_mapper`",
+    "incremental": "COLMAP 3.8 `mapper`",
+    "reference": "reference `global_mapper`",
+}
+# Runs per mapper and input without --repeats.
+DEFAULT_REPEATS = 3
+DEFAULT_SYNTHETIC_REPEATS = 1
+# Stamp of a cached synthetic scene, inside its folder.
+SCENE_STAMP = "benchmark_stamp.json"
 # Bar colours of the global mapper's stages in the runtime plot.
 STAGE_COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
                 "#8c564b", "#e377c2", "#bcbd22", "#17becf", "#393b79",
@@ -206,16 +240,27 @@ def pick_model(colmap, output_path):
 
 
 def evaluate_model(colmap, model_path, gt_path, json_path,
-                   position_thresholds):
+                   position_thresholds, pose_thresholds=None):
     command = [colmap, "model_evaluator", "--input_path", model_path,
                "--gt_path", gt_path, "--json_path", json_path]
     if position_thresholds:
         command += ["--position_thresholds", position_thresholds]
+    if pose_thresholds:
+        command += [POSE_THRESHOLDS_OPTION, pose_thresholds]
     code, text = capture(command)
     if code != 0 or not os.path.exists(json_path):
         return None, text.strip().splitlines()[-1:] or ["no output"]
     with open(json_path) as f:
         return json.load(f), None
+
+
+def evaluator_pose_thresholds(colmap):
+    """The --pose_thresholds value for AUC_THRESHOLDS if the model_evaluator
+    of `colmap` has that option (else None: it reports 1/3/5/10 only)."""
+    code, text = capture([colmap, "model_evaluator", "-h"])
+    if POSE_THRESHOLDS_OPTION in text:
+        return ",".join(AUC_THRESHOLDS)
+    return None
 
 
 def parse_stages(log_path):
@@ -393,6 +438,134 @@ def last_lines(path, count=3):
     return lines[-count:]
 
 
+# --------------------------------------------------------------------------
+# Provenance
+# --------------------------------------------------------------------------
+
+def format_command(argv, cwd):
+    """The exact command (sys.argv, shell-quoted) and the folder it ran in:
+    `python3 <argv>` for a script path, argv itself otherwise."""
+    words = list(argv)
+    if words and words[0].endswith(".py"):
+        words = ["python3"] + words
+    return shlex.join(words), cwd
+
+
+def git_commit(path):
+    """`git rev-parse --short HEAD` of the tree at path, with "+dirty" when
+    `git status --porcelain` lists changes to tracked files; None if it is
+    not a git tree."""
+    try:
+        head = subprocess.run(["git", "-C", path, "rev-parse", "--short",
+                               "HEAD"], stdout=subprocess.PIPE,
+                              stderr=subprocess.DEVNULL, text=True)
+        if head.returncode != 0 or not head.stdout.strip():
+            return None
+        status = subprocess.run(["git", "-C", path, "status", "--porcelain",
+                                 "--untracked-files=no"],
+                                stdout=subprocess.PIPE,
+                                stderr=subprocess.DEVNULL, text=True)
+    except OSError:
+        return None
+    dirty = status.returncode != 0 or bool(status.stdout.strip())
+    return head.stdout.strip() + ("+dirty" if dirty else "")
+
+
+def parse_cmake_cache(text):
+    """(CMAKE_BUILD_TYPE or "unknown", CMAKE_HOME_DIRECTORY or None) of a
+    CMakeCache.txt's text."""
+    build = re.search(r"^CMAKE_BUILD_TYPE(?::\w+)?=(.*)$", text, re.M)
+    home = re.search(r"^CMAKE_HOME_DIRECTORY(?::\w+)?=(.*)$", text, re.M)
+    build = build.group(1).strip() if build else ""
+    return build or "unknown", home.group(1).strip() if home else None
+
+
+def binary_info(binary, source_dir=None):
+    """Path, build type and source commit of a colmap binary: the build type
+    from <build>/CMakeCache.txt for <build>/bin/<binary> ("unknown" without
+    one); the commit of source_dir, else of the cache's source folder."""
+    binary = os.path.abspath(binary)
+    cache = os.path.join(os.path.dirname(os.path.dirname(binary)),
+                         "CMakeCache.txt")
+    build_type, home = "unknown", None
+    try:
+        with open(cache, errors="replace") as f:
+            build_type, home = parse_cmake_cache(f.read())
+    except OSError:
+        pass
+    source = source_dir or home
+    return {"path": binary, "build_type": build_type, "source": source,
+            "commit": git_commit(source) if source else None}
+
+
+def machine_info():
+    """CPU model, core count, total memory (GiB) and kernel."""
+    info = {"cpu": platform.processor() or platform.machine(),
+            "cores": os.cpu_count(), "memory_gib": None,
+            "kernel": "%s %s" % (platform.system(), platform.release())}
+    try:
+        with open("/proc/cpuinfo") as f:
+            match = re.search(r"model name\s*:\s*(.+)", f.read())
+            if match:
+                info["cpu"] = match.group(1).strip()
+    except OSError:
+        pass
+    try:
+        with open("/proc/meminfo") as f:
+            match = re.search(r"MemTotal:\s*(\d+)\s*kB", f.read())
+            if match:
+                info["memory_gib"] = int(match.group(1)) / 1024.0 ** 2
+    except OSError:
+        pass
+    return info
+
+
+def provenance_lines(meta):
+    """The lines that head the reports: command, source and binaries,
+    machine, runs."""
+    lines = ["Command: `%s` (in `%s`)." % (meta["command"], meta["cwd"])]
+    binaries = []
+    for key, label in (("colmap", "ours"), ("reference_colmap",
+                                            "reference")):
+        info = meta.get(key)
+        if not info:
+            continue
+        text = "%s `%s` (%s" % (label, info["path"], info["build_type"])
+        if key != "colmap":
+            text += ", source %s" % ("commit %s of `%s`" % (
+                info["commit"], info["source"]) if info.get("commit")
+                else "unknown")
+        binaries.append(text + ")")
+    ours = meta.get("colmap") or {}
+    lines.append("Source: commit %s of `%s`; binaries: %s." % (
+        ours.get("commit") or "unknown", ours.get("source") or "?",
+        "; ".join(binaries)))
+    machine = meta["machine"]
+    lines.append("Machine: %s, %s cores, %s GiB memory, %s; %s." % (
+        machine["cpu"], machine["cores"],
+        fmt(machine.get("memory_gib"), 1), machine["kernel"], meta["date"]))
+    repeats = meta.get("repeats") or {}
+    if repeats:
+        names = {"global": "ours", "incremental": "stock",
+                 "reference": "reference"}
+        order = [names[m] for m in meta.get("mappers") or MAPPER_ORDER]
+        lines.append("Runs per mapper and input: %s, %s, each from a fresh "
+                     "output folder%s." % (
+                         ", ".join("%d for %s" % (n, what) for what, n in
+                                   sorted(repeats.items())),
+                         "alternating between the mappers (%s, ...)" %
+                         ", ".join(order + order[:1]) if len(order) > 1
+                         else "one mapper",
+                         "; ours once per seed (%s) in each" % ",".join(
+                             str(x) for x in meta["seeds"])
+                         if len(meta.get("seeds") or []) > 1 else ""))
+    return lines
+
+
+# --------------------------------------------------------------------------
+# Datasets and runs
+# --------------------------------------------------------------------------
+
 def find_datasets(paths):
     datasets = []
     for path in paths:
@@ -408,41 +581,144 @@ def find_datasets(paths):
     return datasets
 
 
-def make_synthetic(args, num_images):
-    tool = os.path.join(os.path.dirname(os.path.abspath(args.colmap)),
-                        "make_synthetic_scene")
-    path = os.path.join(args.output_dir, "scenes", "synthetic_%d" % num_images)
-    if os.path.isfile(os.path.join(path, "database.db")):
-        return path
-    os.makedirs(path, exist_ok=True)
-    if not os.path.exists(tool):
-        log("synthetic scene: %s not found, skipped" % tool)
-        return None
-    command = [tool, "--output_path", path, "--num_images", str(num_images)]
+def synthetic_options(num_images):
+    """make_synthetic_scene's options (but --output_path) for a scene of
+    num_images images."""
+    options = ["--num_images", str(num_images)]
     if num_images > 300:
         # Large scenes: an aerial survey with ground-truth verification (the
         # generator's COLMAP verification would dominate the run).
-        command += ["--layout", "grid", "--verification", "ground_truth",
+        options += ["--layout", "grid", "--verification", "ground_truth",
                     "--wrong_match_ratio", "0.3", "--prior_focal_length", "0"]
+    return options
+
+
+def file_sha256(path):
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def scene_stamp(tool, options):
+    """What a cached scene depends on: the generator's options and a
+    fingerprint of the generator binary (sha256; size and mtime for the
+    reader)."""
+    stat = os.stat(tool)
+    return {"generator": os.path.abspath(tool), "options": list(options),
+            "sha256": file_sha256(tool), "size": stat.st_size,
+            "mtime": int(stat.st_mtime)}
+
+
+def read_stamp(path):
+    try:
+        with open(path) as f:
+            stamp = json.load(f)
+        return stamp if isinstance(stamp, dict) else None
+    except (OSError, ValueError):
+        return None
+
+
+def stamp_matches(old, new):
+    """Whether a cached scene's stamp (None: none) still fits: the same
+    options and the same generator binary (by content; its path, size and
+    mtime are only for the reader)."""
+    return (old is not None and old.get("options") == new["options"]
+            and old.get("sha256") == new["sha256"])
+
+
+def make_synthetic(args, num_images):
+    """The folder of a synthetic scene under <output_dir>/scenes/, generated
+    unless a cached one has a matching stamp; None if it cannot be made."""
+    tool = os.path.join(os.path.dirname(os.path.abspath(args.colmap)),
+                        "make_synthetic_scene")
+    path = os.path.join(args.output_dir, "scenes", "synthetic_%d" % num_images)
+    stamp_path = os.path.join(path, SCENE_STAMP)
+    cached = os.path.isfile(os.path.join(path, "database.db"))
+    options = synthetic_options(num_images)
+    if not os.path.exists(tool):
+        if cached:
+            log("synthetic scene: %s not found, using the cached %s "
+                "unchecked" % (tool, path))
+            return path
+        log("synthetic scene: %s not found, skipped" % tool)
+        return None
+    stamp = scene_stamp(tool, options)
+    if cached:
+        old = read_stamp(stamp_path)
+        if stamp_matches(old, stamp):
+            log("synthetic scene: cached %s (stamp matches)" % path)
+            return path
+        log("synthetic scene: %s is stale (%s), generated anew" % (
+            path, "no stamp" if old is None else
+            "other options" if old.get("options") != options
+            else "other generator"))
+    if os.path.isdir(path):
+        shutil.rmtree(path)
+    os.makedirs(path)
+    command = [tool, "--output_path", path] + options
+    log("synthetic scene: $ " + shlex.join(command))
     code, text = capture(command)
     if code != 0 or not os.path.isfile(os.path.join(path, "database.db")):
         log("synthetic scene: %s failed: %s" %
             (tool, (text.strip().splitlines() or ["no output"])[-1]))
         return None
+    # Written last: an interrupted generation leaves no stamp.
+    with open(stamp_path, "w") as f:
+        json.dump(stamp, f, indent=2)
     return path
 
 
-def run_dir_name(mapper, seed):
-    return "global_seed%d" % seed if mapper == "global" else mapper
+def run_schedule(mappers, seeds, repeats):
+    """The runs on one input, [(mapper, seed, repeat)]: repeat by repeat,
+    the mappers in MAPPER_ORDER (ours once per seed), so that the mappers
+    alternate instead of all runs of ours coming first."""
+    schedule = []
+    for repeat in range(repeats):
+        for mapper in MAPPER_ORDER:
+            if mapper not in mappers:
+                continue
+            if mapper == "global":
+                schedule += [(mapper, seed, repeat) for seed in seeds]
+            else:
+                schedule.append((mapper, None, repeat))
+    return schedule
 
 
-def run_one(args, dataset, mapper, seed, index, total):
-    """One run; seed: --GlobalMapper.random_seed of ours (None for the stock
-    mapper)."""
+def run_dir_name(mapper, seed, repeat=0):
+    name = "global_seed%d" % seed if mapper == "global" else mapper
+    return name + "_run%d" % (repeat + 1)
+
+
+def check_reference(binary):
+    """Exits with a message unless `binary` is a colmap with global_mapper."""
+    if not os.access(binary, os.X_OK) or os.path.isdir(binary):
+        sys.exit("error: --reference_colmap %s is not an executable" % binary)
+    try:
+        code, text = capture([binary, "global_mapper", "-h"])
+    except OSError as error:
+        sys.exit("error: --reference_colmap %s cannot run: %s" % (binary,
+                                                                 error))
+    if "not recognized" in text or "--database_path" not in text:
+        sys.exit("error: --reference_colmap %s has no `global_mapper` "
+                 "command (`%s global_mapper -h` exited with %d: %s); it "
+                 "needs a COLMAP build with the global mapper, e.g. upstream "
+                 "COLMAP 4.x" % (binary, binary, code, (text.strip()
+                                                        .splitlines()
+                                                        or ["no output"])[-1]))
+
+
+def run_one(args, dataset, mapper, seed, index, total, repeat=0, repeats=1):
+    """One run; seed: --GlobalMapper.random_seed of ours (None for the
+    others); repeat: 0-based, of repeats. Every run starts from a fresh
+    folder with its own copy of the database (the original is never opened
+    by a mapper: a newer COLMAP may migrate its schema)."""
     name = os.path.basename(dataset)
     command_name = MAPPERS[mapper]
+    binary = args.reference_colmap if mapper == "reference" else args.colmap
     work = os.path.join(args.output_dir, "runs", name,
-                        run_dir_name(mapper, seed))
+                        run_dir_name(mapper, seed, repeat))
     if os.path.isdir(work):
         shutil.rmtree(work)
     os.makedirs(work)
@@ -459,13 +735,17 @@ def run_one(args, dataset, mapper, seed, index, total):
     log_path = os.path.join(work, "log.txt")
 
     record = {"dataset": name, "mapper": mapper, "command": command_name,
-              "status": "ok"}
+              "binary": binary, "status": "ok", "repeat": repeat}
     if seed is not None:
         record["seed"] = seed
     record["db_images"] = count_db_images(database)
-    title = command_name + ("" if seed is None else " (seed %d)" % seed)
+    details = [] if seed is None else ["seed %d" % seed]
+    if repeats > 1:
+        details.append("run %d/%d" % (repeat + 1, repeats))
+    title = ("reference " if mapper == "reference" else "") + command_name + (
+        " (%s)" % ", ".join(details) if details else "")
     log("[%d/%d] %s: %s ..." % (index, total, name, title))
-    command = [args.colmap, command_name, "--database_path", database,
+    command = [binary, command_name, "--database_path", database,
                "--image_path", image_path, "--output_path", output_path]
     if seed is not None:
         command += ["--GlobalMapper.random_seed", str(seed)]
@@ -489,6 +769,10 @@ def run_one(args, dataset, mapper, seed, index, total):
         record["error"] = last_lines(log_path)
     else:
         model_path, analysis = pick_model(args.colmap, output_path)
+        if model_path is None and binary != args.colmap:
+            # A model our COLMAP 3.8 cannot analyze: the reference's own
+            # model_analyzer (the evaluation still uses ours).
+            model_path, analysis = pick_model(binary, output_path)
         if model_path is None:
             record["status"] = "failed: no model"
     if model_path is not None:
@@ -499,7 +783,7 @@ def run_one(args, dataset, mapper, seed, index, total):
             metrics, error = evaluate_model(
                 args.colmap, model_path, gt_path,
                 os.path.join(work, "evaluation.json"),
-                args.position_thresholds)
+                args.position_thresholds, args.pose_thresholds)
             if metrics is not None:
                 record["evaluation"] = metrics
             else:
@@ -558,27 +842,61 @@ def fmt_range(values, digits=1):
 
 
 def median(values):
+    """Median of the non-None values (None if none); an int when the values
+    are ints and the median is whole (counts stay counts)."""
     values = [v for v in values if v is not None]
-    return statistics.median(values) if values else None
+    if not values:
+        return None
+    result = statistics.median(values)
+    if all(isinstance(v, int) for v in values) and result == int(result):
+        return int(result)
+    return result
 
 
-def summarize_global(runs):
-    """One record for our mapper's runs of one dataset over the seeds: the
-    median of every number over the successful runs, the maximum of the peak
-    memory, and the runs themselves (for the spread). One run: itself."""
+def time_spread(runs):
+    """(median, min, max) of the wall times of runs (None, None, None for
+    none)."""
+    times = [r.get("wall_time_s") for r in runs
+             if r.get("wall_time_s") is not None]
+    if not times:
+        return None, None, None
+    return statistics.median(times), min(times), max(times)
+
+
+def median_time_run(runs):
+    """The run whose wall time is the median (the lower middle one for an
+    even count)."""
+    timed = [r for r in runs if r.get("wall_time_s") is not None] or runs
+    order = sorted(timed, key=lambda r: r.get("wall_time_s") or 0.0)
+    return order[(len(order) - 1) // 2]
+
+
+def summarize_runs(runs):
+    """One record for the runs of one mapper on one dataset (ours: over the
+    seeds and repeats): the median of every number over the successful runs
+    (wall time included), the maximum of the peak memory, the model of the
+    run with the median time, and the runs themselves (for the spread). One
+    run: itself."""
     if len(runs) == 1:
         return dict(runs[0], runs=runs)
     ok_runs = [r for r in runs if r["status"] == "ok"]
     pool = ok_runs or runs
-    summary = {"dataset": runs[0]["dataset"], "mapper": "global",
+    summary = {"dataset": runs[0]["dataset"], "mapper": runs[0]["mapper"],
                "command": runs[0].get("command"), "runs": runs,
                "status": "ok" if ok_runs else runs[0]["status"]}
+    seeds = {r.get("seed") for r in runs}
+    if len(seeds) == 1 and None not in seeds:
+        summary["seed"] = runs[0]["seed"]
     for key in ("wall_time_s", "registered", "points", "mean_track_length",
                 "mean_reproj_error_px", "replaced_images", "left_out_images"):
         summary[key] = median(r.get(key) for r in pool)
     peaks = [r["peak_rss_mb"] for r in pool if r.get("peak_rss_mb")
              is not None]
     summary["peak_rss_mb"] = max(peaks) if peaks else None
+    middle = median_time_run(pool)
+    for key in ("model_path", "image_names", "db_images"):
+        if key in middle:
+            summary[key] = middle[key]
     evaluations = [r["evaluation"] for r in pool if r.get("evaluation")]
     if evaluations:
         evaluation = {}
@@ -595,17 +913,18 @@ def summarize_global(runs):
     return summary
 
 
+
 def summary_records(records):
-    """Rows of the main table: per dataset, ours (over the seeds) and the
-    stock mapper, in the order of the runs."""
+    """Rows of the main table: per dataset, ours (over the seeds and
+    repeats), the stock mapper and the reference (over the repeats), in the
+    order of the runs."""
     rows = []
     for name in dataset_order(records):
-        runs = [r for r in records
-                if r["dataset"] == name and r["mapper"] == "global"]
-        if runs:
-            rows.append(summarize_global(runs))
-        rows += [r for r in records
-                 if r["dataset"] == name and r["mapper"] == "incremental"]
+        for mapper in MAPPER_ORDER:
+            runs = [r for r in records
+                    if r["dataset"] == name and r["mapper"] == mapper]
+            if runs:
+                rows.append(summarize_runs(runs))
     return rows
 
 
@@ -625,27 +944,56 @@ def beyond_label(records):
                                            else BEYOND_FRACTION))
 
 
+def run_label(run):
+    """"seed 0 run 2" / "run 2" / "seed 0" of one run."""
+    words = []
+    if run.get("seed") is not None:
+        words.append("seed %d" % run["seed"])
+    if run.get("repeat") is not None:
+        words.append("run %d" % (run["repeat"] + 1))
+    return " ".join(words) or "run"
+
+
+def runs_note(runs):
+    """"(median of 6 runs: 2 seeds × 3 repeats)", "(median of 3 runs)", ...;
+    "" for one run."""
+    count = len(runs)
+    if count < 2:
+        return ""
+    seeds = len({r.get("seed") for r in runs})
+    if seeds > 1 and count > seeds:
+        return " (median of %d runs: %d seeds × %d repeats)" % (
+            count, seeds, count // seeds)
+    if seeds > 1:
+        return " (median of %d seeds)" % seeds
+    return " (median of %d runs)" % count
+
+
+def main_table_header(records):
+    """The main table's two header lines; they say how several runs are
+    combined."""
+    aucs = " | ".join("AUC@%s° (median)" % t for t in AUC_THRESHOLDS)
+    header = ("| dataset | mapper | wall time: median (min–max) "
+              "| peak memory (max) | registered (min–max) | %s "
+              "| mean position error (median) | %s (min–max) "
+              "| re-placed/left out (min–max) | mean reproj. error (median) "
+              "| mean track length (median) |" % (aucs,
+                                                  beyond_label(records)))
+    return [header, "|" + "---|" * (header.count("|") - 1)]
+
+
 def markdown_tables(records, meta):
-    """The main table and the per-stage table of all runs (records: the
-    runs, one per seed for ours)."""
+    """The provenance, the main table and the per-stage table of all runs
+    (records: every run, one per seed and repeat for ours)."""
     rows = summary_records(records)
-    multi_seed = any(len(r.get("runs", [])) > 1 for r in rows)
-    lines = []
-    lines.append("| dataset | mapper | wall time | peak memory | registered "
-                 "| AUC@1° | AUC@3° | AUC@5° | AUC@10° | mean position error "
-                 "| %s | re-placed/left out | mean reproj. error "
-                 "| mean track length |" % beyond_label(records))
-    lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    several_runs = any(len(r.get("runs", [])) > 1 for r in rows)
+    lines = provenance_lines(meta) + [""]
+    lines += main_table_header(records)
     for r in rows:
         runs = r.get("runs") or [r]
         ok_runs = [x for x in runs if x["status"] == "ok"] or runs
         several = len(runs) > 1
-        if r["mapper"] == "global":
-            mapper = "ours `global_mapper`"
-            if several:
-                mapper += " (median of %d seeds)" % len(runs)
-        else:
-            mapper = "COLMAP 3.8 `mapper`"
+        mapper = MAPPER_LABELS.get(r["mapper"], r["mapper"]) + runs_note(runs)
         ev = r.get("evaluation") or {}
         if r["status"] != "ok":
             registered = r["status"]
@@ -655,7 +1003,7 @@ def markdown_tables(records, meta):
                  for x in ok_runs]), ev["images"])
         else:
             registered = fmt_span([x.get("registered") for x in ok_runs])
-        failed = ["seed %s: %s" % (x.get("seed"), x["status"])
+        failed = ["%s: %s" % (run_label(x), x["status"])
                   for x in runs if x["status"] != "ok"]
         if failed and r["status"] == "ok":
             registered += " (%s)" % "; ".join(failed)
@@ -693,8 +1041,8 @@ def markdown_tables(records, meta):
     stage_names = stage_order(rows)
     if stage_names:
         lines.append("")
-        lines.append("Per-stage time of `global_mapper` (s%s):" % (
-            ", median over the seeds" if multi_seed else ""))
+        lines.append("Per-stage time of our `global_mapper` (s%s):" % (
+            ", median over the runs" if several_runs else ""))
         lines.append("")
         lines.append("| dataset | " + " | ".join(stage_names) +
                      " | other | total |")
@@ -719,15 +1067,21 @@ def markdown_tables(records, meta):
                  "ground-truth cameras) from ground truth after the "
                  "alignment. Re-placed/left out: images the global mapper's "
                  "pose verification moved or deregistered.")
-    if multi_seed:
-        lines.append("Several seeds (`--GlobalMapper.random_seed`): our row "
-                     "shows the median over the seeds, the range in "
-                     "parentheses for wall time and AUC@3°, ranges (min–max) "
-                     "for registered, cameras beyond and re-placed/left out, "
-                     "and the largest peak memory; every seed is in the "
-                     "bars table.")
-    lines.append("Machine: %s, %s CPUs; %s." % (
-        meta["machine"], meta["cpus"], meta["date"]))
+    missing = [t for t in AUC_THRESHOLDS
+               if not any((r.get("evaluation") or {}).get("auc@" + t)
+                          is not None for r in rows)]
+    if missing and any(r.get("evaluation") for r in rows):
+        lines.append("AUC@%s°: not reported by this `model_evaluator` "
+                     "(it has no `%s`)." % ("°, AUC@".join(missing),
+                                            POSE_THRESHOLDS_OPTION))
+    if several_runs:
+        lines.append("Several runs (seeds `--GlobalMapper.random_seed` of "
+                     "ours, and repeats): a row shows the median over its "
+                     "runs of the wall time and of every figure, with the "
+                     "range (min–max) in parentheses for wall time and "
+                     "AUC@3°, ranges for registered, cameras beyond and "
+                     "re-placed/left out, and the largest peak memory; every "
+                     "run is in results.json.")
     return "\n".join(lines) + "\n"
 
 
@@ -764,7 +1118,7 @@ def check_bars(colmap, record, reference, stock, stock_relative,
     ev = record.get("evaluation") or {}
     cells, verdicts = {}, {}
     registered, images = run_registered(record)
-    our_text = "%s/%s" % ("–" if registered is None else registered,
+    our_text = "%s/%s" % ("–" if registered is None else "%g" % registered,
                           "?" if images is None else images)
     stock_ref = (reference or {}).get("incremental") or {}
 
@@ -887,7 +1241,7 @@ def check_bars(colmap, record, reference, stock, stock_relative,
             verdicts["time"] = met
 
     if record.get("replaced_images") is not None:
-        cells["moved"] = "%d/%d" % (record["replaced_images"],
+        cells["moved"] = "%g/%g" % (record["replaced_images"],
                                     record["left_out_images"])
     else:
         cells["moved"] = "–"
@@ -911,23 +1265,39 @@ def check_bars(colmap, record, reference, stock, stock_relative,
             "result": result}
 
 
+def seed_summaries(records, name):
+    """Our runs on dataset `name`, one summary per seed over its repeats
+    (summarize_runs: median time and figures), in seed order of the runs."""
+    seeds = []
+    for r in records:
+        if (r["dataset"] == name and r["mapper"] == "global"
+                and r.get("seed") not in seeds):
+            seeds.append(r.get("seed"))
+    return [summarize_runs([r for r in records if r["dataset"] == name and
+                            r["mapper"] == "global" and r.get("seed") == s])
+            for s in seeds]
+
+
 def compute_bars(args, records, datasets):
+    """The bars per seed of ours and dataset, judged on the median over the
+    seed's repeats against the stock mapper's median over its repeats."""
     rows = []
     for dataset in datasets:
         name = os.path.basename(dataset)
         reference = parse_reference(dataset)
-        stock = next((r for r in records if r["dataset"] == name
-                      and r["mapper"] == "incremental"), None)
+        stock_runs = [r for r in records if r["dataset"] == name
+                      and r["mapper"] == "incremental"]
+        stock = summarize_runs(stock_runs) if stock_runs else None
         # The README has the stock mapper's figures but no upstream
         # global_mapper's (dino-363): compare with the stock mapper.
         stock_relative = name in args.stock_relative or (
             reference is not None and "incremental" in reference
             and "upstream" not in reference)
-        for r in records:
-            if r["dataset"] == name and r["mapper"] == "global":
-                rows.append(check_bars(args.colmap, r, reference, stock,
-                                       stock_relative,
-                                       MAX_POSITION_ERROR.get(name)))
+        for r in seed_summaries(records, name):
+            row = check_bars(args.colmap, r, reference, stock,
+                             stock_relative, MAX_POSITION_ERROR.get(name))
+            row["runs"] = len(r.get("runs") or [r])
+            rows.append(row)
     return rows
 
 
@@ -949,7 +1319,10 @@ def all_bars_met(bars):
 
 
 def bars_table(bars, beyond):
-    lines = ["Bars of issue 10, per run of `global_mapper`:", "",
+    repeated = any(b.get("runs", 1) > 1 for b in bars)
+    lines = ["Bars of issue 10, per %s of our `global_mapper`:" % (
+        "seed (the median time and figures over its repeats, against the "
+        "stock mapper's median)" if repeated else "run"), "",
              "| dataset | seed | registered | AUC@3° vs bar | %s "
              "| mean position error vs bar | time vs stock mapper "
              "| re-placed/left out | result |" % beyond,
@@ -972,7 +1345,8 @@ def bars_table(bars, beyond):
         "stock `mapper` of this run registers, AUC@3° at most %g below it, "
         "in at most %g× its time (its README figures if it was not run). "
         "Without README figures (synthetic scenes) only the registration "
-        "and cameras-beyond bars apply. AUC compared at one decimal." % (
+        "and cameras-beyond bars apply. AUC compared at one decimal. Times: "
+        "medians over the repeats." % (
             AUC_BAR_MARGIN, 100 * BEYOND_FRACTION,
             "; ".join("%s: mean position error at most %g" % item
                       for item in sorted(MAX_POSITION_ERROR.items())),
@@ -1010,7 +1384,10 @@ def write_plots(records, output_dir):
         return []
     written = []
     stage_names = stage_order(records)
-    columns = stage_names + ["other", "COLMAP 3.8 mapper (total)"]
+    has_reference = any(r["mapper"] == "reference" for r in records)
+    totals = ["COLMAP 3.8 mapper (total)"] + (
+        ["reference global_mapper (total)"] if has_reference else [])
+    columns = stage_names + ["other"] + totals
 
     # Runtime: one stacked bar per run (stages of ours, total of the stock
     # mapper).
@@ -1029,9 +1406,11 @@ def write_plots(records, output_dir):
                 ", median" if len(r.get("runs") or []) > 1 else "") + ")"
                 if r["status"] == "ok" else " (global, failed)")
         else:
-            values[-1] = r["wall_time_s"]
-            label = r["dataset"] + (" (incr.)" if r["status"] == "ok"
-                                    else " (incr., failed)")
+            short = "ref." if r["mapper"] == "reference" else "incr."
+            values[len(stage_names) + 1 + (r["mapper"] == "reference")] = (
+                r["wall_time_s"])
+            label = r["dataset"] + (" (%s)" % short if r["status"] == "ok"
+                                    else " (%s, failed)" % short)
         rows.append([label] + values)
     if rows:
         data_path = os.path.join(output_dir, "runtime_per_stage.dat")
@@ -1059,26 +1438,36 @@ def write_plots(records, output_dir):
             # Distinct colours for the stages, grey for the stock mapper.
             "colors = '%s'" % " ".join(
                 [STAGE_COLORS[k % len(STAGE_COLORS)]
-                 for k in range(len(columns) - 1)] + ["#999999"]),
+                 for k in range(len(columns) - len(totals))] +
+                ["#999999", "#555555"][:len(totals)]),
             "plot for [col=2:%d] '%s' using col:xtic(1) title columnheader "
             "lc rgb word(colors, col - 1)" % (len(columns) + 1, data_path),
         ])
         if run_gnuplot(gnuplot, script, png):
             written.append(png)
 
-    # AUC: per dataset, ours and the stock mapper, one panel per threshold.
+    # AUC: per dataset, ours, the stock mapper and the reference, one panel
+    # per threshold that some row has.
     datasets = []
     for r in records:
         if r.get("evaluation") is not None and r["dataset"] not in datasets:
             datasets.append(r["dataset"])
-    if datasets:
+    thresholds = [t for t in AUC_THRESHOLDS
+                  if any((r.get("evaluation") or {}).get("auc@" + t)
+                         is not None for r in records)]
+    mappers = [m for m in MAPPER_ORDER
+               if any(r["mapper"] == m for r in records)]
+    titles = {"global": "ours (global)",
+              "incremental": "COLMAP 3.8 incremental",
+              "reference": "reference global_mapper"}
+    if datasets and thresholds:
         data_path = os.path.join(output_dir, "auc_per_dataset.dat")
         with open(data_path, "w") as f:
             # No header line: gnuplot would count it as the first cluster.
             for name in datasets:
                 values = []
-                for t in AUC_THRESHOLDS:
-                    for mapper in ("global", "incremental"):
+                for t in thresholds:
+                    for mapper in mappers:
                         ev = next((r.get("evaluation") for r in records
                                    if r["dataset"] == name
                                    and r["mapper"] == mapper), None) or {}
@@ -1088,16 +1477,22 @@ def write_plots(records, output_dir):
                 f.write(gnuplot_label(name) + " " + " ".join(values) + "\n")
         png = os.path.join(output_dir, "auc_per_dataset.png")
         panels = []
-        for k, t in enumerate(AUC_THRESHOLDS):
+        for k, t in enumerate(thresholds):
+            first = 2 + len(mappers) * k
+            plots = ["'%s' using %d:xtic(1) title '%s'" % (
+                data_path, first, titles[mappers[0]])]
+            plots += ["'' using %d title '%s'" % (first + j, titles[m])
+                      for j, m in enumerate(mappers) if j > 0]
             panels.append("\n".join([
                 "set title 'Pairwise pose AUC @ %s deg (%%)'" % t,
-                "plot '%s' using %d:xtic(1) title 'ours (global)', "
-                "'' using %d title 'COLMAP 3.8 incremental'"
-                % (data_path, 2 + 2 * k, 3 + 2 * k),
+                "plot " + ", ".join(plots),
             ]))
+        columns = 2 if len(thresholds) <= 4 else 3
+        rows = (len(thresholds) + columns - 1) // columns
         script = "\n".join([
-            "set terminal pngcairo size 1200,900 noenhanced" if
-            has_pngcairo(gnuplot) else "set terminal png size 1200,900",
+            "set terminal pngcairo size %d,900 noenhanced" % (600 * columns)
+            if has_pngcairo(gnuplot) else
+            "set terminal png size %d,900" % (600 * columns),
             "set output '%s'" % png,
             "set style data histograms",
             "set style histogram clustered gap 1",
@@ -1107,7 +1502,7 @@ def write_plots(records, output_dir):
             "set key below",
             "set xrange [-0.5:%f]" % (len(datasets) - 0.5),
             "set xtics rotate by -25 left",
-            "set multiplot layout 2,2",
+            "set multiplot layout %d,%d" % (rows, columns),
         ] + panels + ["unset multiplot"])
         if run_gnuplot(gnuplot, script, png):
             written.append(png)
@@ -1128,13 +1523,14 @@ def run_gnuplot(gnuplot, script, png):
     return True
 
 
-def update_readme(readme_path, table, plot_path, command):
+def update_readme(readme_path, table, plot_path):
     """Replaces the README section between README_BEGIN and README_END (or
-    appends one) with the table and one plot, copied beside the README."""
+    appends one) with the tables (headed by their provenance: the command
+    that made them, commit, binaries, machine) and one plot, copied beside
+    the README, after the provenance."""
     readme_dir = os.path.dirname(os.path.abspath(readme_path))
-    section = [README_BEGIN, "",
-               "Regenerate with `%s` (on this machine; the tables below are "
-               "from this command's latest run)." % command, ""]
+    provenance, _, table = table.partition("\n\n")
+    section = [README_BEGIN, "", provenance, ""]
     if plot_path:
         target = os.path.join(readme_dir, "docs", "benchmark",
                               os.path.basename(plot_path))
@@ -1164,43 +1560,6 @@ def parse_seeds(text):
         raise argparse.ArgumentTypeError(
             "need distinct non-negative integers: %r" % text)
     return seeds
-
-
-def command_line(parser, argv, cwd):
-    """The command that ran, for the reports: `python3 <argv>` with the paths
-    inside the repository's parent folder made relative to the repository
-    (the folder it is meant to run from); other absolute paths stay."""
-    value_options = {option for action in parser._actions
-                     for option in action.option_strings if action.nargs != 0}
-    parent = os.path.dirname(REPO_DIR)
-
-    def relative(path):
-        full = os.path.normpath(os.path.join(cwd, path))
-        if not os.path.isabs(path) and not os.path.exists(full):
-            return path  # Not a path (or not one yet): as given.
-        if full == parent or full.startswith(parent + os.sep):
-            return os.path.relpath(full, REPO_DIR)
-        return full
-
-    words = ["python3", os.path.relpath(os.path.abspath(argv[0]), REPO_DIR)
-             if argv[0].endswith(".py") else argv[0]]
-    previous = None
-    for arg in argv[1:]:
-        if arg.startswith("-"):
-            option, equals, value = arg.partition("=")
-            if equals and option in value_options:
-                arg = option + "=" + relative(value)
-            words.append(arg)
-            previous = option if not equals else None
-            continue
-        # An option's value (a path only for the path options) or a dataset.
-        if previous in value_options and previous not in (
-                "--colmap", "--output_dir", "--readme"):
-            words.append(arg)
-        else:
-            words.append(relative(arg))
-        previous = None
-    return " ".join(shlex.quote(w) for w in words)
 
 
 def self_test():
@@ -1331,27 +1690,171 @@ def self_test():
     runs = [run("global", s, 10, a, w) for s, a, w in
             [(0, 80.0, 3.0), (1, 82.0, 5.0), (2, 81.0, 4.0)]]
     runs[2]["evaluation"]["cameras_beyond"] = 2
-    summary = summarize_global(runs)
+    summary = summarize_runs(runs)
     expect(summary["wall_time_s"] == 4.0 and
            summary["evaluation"]["auc@3"] == 81.0, "median over seeds")
-    table = markdown_tables(runs + [stock], {"machine": "m", "cpus": 2,
-                                             "date": "today"})
+    meta = {"command": "python3 scripts/benchmark.py --repeats 2 "
+                       "--readme '/tmp/a b/README.md'",
+            "cwd": "/work/main", "date": "today", "seeds": [0, 1, 2],
+            "machine": {"cpu": "Test CPU @ 2.0GHz", "cores": 2,
+                        "memory_gib": 23.54, "kernel": "Linux 6.1.0"},
+            "colmap": {"path": "/r/build/bin/colmap", "build_type": "Release",
+                       "source": "/r", "commit": "abc1234+dirty"},
+            "reference_colmap": {"path": "/u/build/bin/colmap",
+                                 "build_type": "unknown", "source": None,
+                                 "commit": None},
+            "repeats": {"datasets": 3, "synthetic scenes": 1}}
+    table = markdown_tables(runs + [stock], meta)
     expect("4.0 s (3.0–5.0)" in table and "81.0 (80.0–82.0)" in table and
            "| 0–2 |" in table, "seed spread in the table:\n" + table)
 
-    parser = argparse.ArgumentParser()
-    parser.add_argument("datasets", nargs="*")
-    parser.add_argument("--colmap")
-    parser.add_argument("--seeds")
-    parser.add_argument("--skip_incremental", action="store_true")
-    parent = os.path.dirname(REPO_DIR)
-    line = command_line(parser, [
-        os.path.join(REPO_DIR, "scripts", "benchmark.py"), "--colmap",
-        "/usr/bin/env", "--skip_incremental", "--seeds", "0,1",
-        os.path.join(parent, "x y")], "/")
-    expect(line == "python3 scripts/benchmark.py --colmap /usr/bin/env "
-           "--skip_incremental --seeds 0,1 '../x y'", line)
+    # Repeats: median and spread of the time, accuracy as medians.
+    expect(median([3.0, None, 1.0, 2.0]) == 2.0 and median([]) is None and
+           repr(median([30, 30])) == "30" and median([1, 2]) == 1.5,
+           "median")
+    expect(time_spread([{"wall_time_s": t} for t in (5.0, 1.0, 2.0, 9.0)])
+           == (3.5, 1.0, 9.0), "median and spread of an even count")
+    expect(time_spread([{}]) == (None, None, None), "no times")
+    expect(median_time_run([{"wall_time_s": t, "k": t}
+                            for t in (5.0, 1.0, 2.0, 9.0)])["k"] == 2.0,
+           "the lower middle run of an even count")
+    repeated = []
+    for repeat, (wall0, wall1, auc) in enumerate(
+            [(3.0, 6.0, 80.0), (1.0, 2.0, 82.0), (2.0, 4.0, 81.0)]):
+        for seed, wall in ((0, wall0), (1, wall1)):
+            r = run("global", seed, 10, auc, wall)
+            r["repeat"] = repeat
+            r["model_path"] = "m%d%d" % (seed, repeat)
+            repeated.append(r)
+    summary = summarize_runs(repeated)
+    expect(summary["wall_time_s"] == 2.5 and
+           summary["evaluation"]["auc@3"] == 81.0 and
+           "seed" not in summary, "median over seeds × repeats")
+    per_seed = seed_summaries(repeated, "d")
+    expect([x["seed"] for x in per_seed] == [0, 1] and
+           per_seed[0]["wall_time_s"] == 2.0 and
+           per_seed[1]["wall_time_s"] == 4.0 and
+           per_seed[1]["model_path"] == "m12", "per-seed medians: " +
+           str([(x.get("seed"), x["wall_time_s"]) for x in per_seed]))
+    expect(runs_note(repeated) == " (median of 6 runs: 2 seeds × 3 repeats)"
+           and runs_note(runs) == " (median of 3 seeds)" and
+           runs_note(repeated[:1]) == "" and
+           runs_note([dict(stock, repeat=k) for k in range(3)])
+           == " (median of 3 runs)", "runs notes")
+    failed = dict(repeated[1], status="failed: exit 1", evaluation=None)
+    table = markdown_tables(repeated[:1] + [failed] + repeated[2:], meta)
+    expect("2.0 s (1.0–4.0)" in table and "seed 1 run 1: failed: exit 1"
+           in table, "a failed repeat:\n" + table)
+
+    # The order of the runs: the mappers alternate.
+    expect(run_schedule(["global", "incremental", "reference"], [0], 2) ==
+           [("global", 0, 0), ("incremental", None, 0), ("reference", None, 0),
+            ("global", 0, 1), ("incremental", None, 1),
+            ("reference", None, 1)], "alternating schedule")
+    expect(run_schedule(["reference", "global"], [3, 4], 1) ==
+           [("global", 3, 0), ("global", 4, 0), ("reference", None, 0)],
+           "schedule with seeds")
+    expect(run_dir_name("global", 2, 1) == "global_seed2_run2" and
+           run_dir_name("reference", None, 0) == "reference_run1",
+           "a fresh folder per run")
+
+    # The stamp of a cached synthetic scene.
+    with tempfile.TemporaryDirectory() as tmp:
+        tool = os.path.join(tmp, "make_synthetic_scene")
+        with open(tool, "wb") as f:
+            f.write(b"generator v1")
+        stamp = scene_stamp(tool, synthetic_options(30))
+        expect(stamp["sha256"] == hashlib.sha256(b"generator v1").hexdigest()
+               and stamp["options"] == ["--num_images", "30"], "stamp")
+        stamp_path = os.path.join(tmp, SCENE_STAMP)
+        with open(stamp_path, "w") as f:
+            json.dump(stamp, f)
+        old = read_stamp(stamp_path)
+        expect(stamp_matches(old, stamp), "the same stamp matches")
+        expect(stamp_matches(dict(old, mtime=0, generator="/x"), stamp),
+               "a copied, touched generator with the same content matches")
+        expect(not stamp_matches(None, stamp), "no stamp")
+        expect(read_stamp(os.path.join(tmp, "missing")) is None,
+               "a missing stamp")
+        expect(not stamp_matches(
+            old, scene_stamp(tool, synthetic_options(2000))),
+               "other options")
+        with open(tool, "wb") as f:
+            f.write(b"generator v2")
+        expect(not stamp_matches(old, scene_stamp(tool,
+                                                  synthetic_options(30))),
+               "another generator")
+        expect(git_commit(tmp) is None, "not a git tree")
+
+    # The exact command, shell-quoted, and the provenance header.
+    command, cwd = format_command(
+        ["scripts/benchmark.py", "--readme", "/tmp/a b/README.md",
+         "--synthetic", "30", "--reference_colmap=build/bin/colmap",
+         "it's"], "/work/main")
+    expect(command == "python3 scripts/benchmark.py --readme "
+           "'/tmp/a b/README.md' --synthetic 30 "
+           "--reference_colmap=build/bin/colmap 'it'\"'\"'s'" and
+           shlex.split(command)[1:] == ["scripts/benchmark.py", "--readme",
+                                        "/tmp/a b/README.md", "--synthetic",
+                                        "30",
+                                        "--reference_colmap=build/bin/colmap",
+                                        "it's"] and cwd == "/work/main",
+           "quoted command: " + command)
+    expect(format_command(["/x/bench", "a b"], "/")[0] == "/x/bench 'a b'",
+           "a command that is no .py")
+    expect(parse_cmake_cache("# c\nCMAKE_BUILD_TYPE:STRING=Release\n"
+                             "CMAKE_HOME_DIRECTORY:INTERNAL=/src\n") ==
+           ("Release", "/src"), "CMakeCache.txt")
+    expect(parse_cmake_cache("CMAKE_BUILD_TYPE:STRING=\n") ==
+           ("unknown", None), "no build type")
+    expect(binary_info("/nonexistent/bin/colmap")["build_type"] == "unknown",
+           "a binary without CMakeCache.txt")
+    header = provenance_lines(meta)
+    expect(header[0] == "Command: `%s` (in `/work/main`)." % meta["command"],
+           "command line: " + header[0])
+    expect("commit abc1234+dirty of `/r`" in header[1] and
+           "ours `/r/build/bin/colmap` (Release)" in header[1] and
+           "reference `/u/build/bin/colmap` (unknown, source unknown)"
+           in header[1], "source and binaries: " + header[1])
+    expect(header[2] == "Machine: Test CPU @ 2.0GHz, 2 cores, 23.5 GiB "
+           "memory, Linux 6.1.0; today.", "machine: " + header[2])
+    expect("3 for datasets" in header[3] and "1 for synthetic scenes"
+           in header[3] and "once per seed (0,1,2)" in header[3],
+           "runs: " + header[3])
+    table_lines = markdown_tables(repeated, meta).split("\n")
+    expect(table_lines[:4] == header and table_lines[4] == "" and
+           "| AUC@0.5° (median) | AUC@1° (median) | AUC@3° (median) "
+           "| AUC@5° (median) | AUC@10° (median) |" in table_lines[5] and
+           "wall time: median (min–max)" in table_lines[5] and
+           table_lines[6].count("---") == table_lines[5].count("|") - 1,
+           "table header:\n" + "\n".join(table_lines[:7]))
+    expect("AUC@0.5°: not reported" in "\n".join(table_lines),
+           "a missing threshold is named")
+
+    # The README block records the command that made it.
+    with tempfile.TemporaryDirectory() as tmp:
+        readme = os.path.join(tmp, "README.md")
+        with open(readme, "w") as f:
+            f.write("# t\n\n%s\nOLD BLOCK\n%s\n\nafter\n" % (README_BEGIN,
+                                                         README_END))
+        update_readme(readme, markdown_tables(repeated, meta), None)
+        text = open(readme).read()
+        block = text.split(README_BEGIN)[1].split(README_END)[0]
+        expect("OLD BLOCK" not in text and text.endswith("\nafter\n") and
+               block.count(meta["command"]) == 1 and
+               "Regenerate with" not in block and
+               "| AUC@0.5° (median)" in block, "README block:\n" + text)
     print("self-test: %d checks passed" % checks[0])
+
+
+def positive_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError("need a positive integer: %r" % text)
+    return value
 
 
 def main():
@@ -1364,20 +1867,41 @@ def main():
                         "under %s" % DEFAULT_DATASETS)
     parser.add_argument("--colmap", default=DEFAULT_COLMAP,
                         help="our colmap binary (default: %(default)s)")
+    parser.add_argument("--reference_colmap", metavar="PATH",
+                        help="another COLMAP build's colmap binary (e.g. "
+                        "upstream COLMAP 4.x); its `global_mapper` runs as a "
+                        "third mapper on a copy of each database (never the "
+                        "original: a newer COLMAP may migrate the schema), "
+                        "evaluated like ours; fails at once if it has no "
+                        "global_mapper")
     parser.add_argument("--output_dir", default=DEFAULT_OUTPUT,
-                        help="where runs and reports go (default: "
-                        "%(default)s)")
+                        help="where runs and reports go; synthetic scenes "
+                        "are cached in its scenes/ (default: %(default)s)")
+    parser.add_argument("--repeats", type=positive_int, metavar="N",
+                        help="run every mapper N times on every input, "
+                        "alternating between the mappers (ours, stock, "
+                        "reference, ours, ...), each run from a fresh output "
+                        "folder; the table shows the median wall time with "
+                        "its min-max and the medians of the other figures. "
+                        "Default: %d for the datasets, %d for synthetic "
+                        "scenes (--synthetic: large scenes take minutes per "
+                        "run, and a scene's noise is fixed by the generator); "
+                        "N given applies to both" % (
+                            DEFAULT_REPEATS, DEFAULT_SYNTHETIC_REPEATS))
     parser.add_argument("--seeds", type=parse_seeds, default=[0],
                         metavar="S,S,...", help="run our global mapper once "
-                        "per seed (--GlobalMapper.random_seed), e.g. "
-                        "0,1,2,3,4; the stock mapper runs once (default: 0)")
+                        "per seed (--GlobalMapper.random_seed) in every "
+                        "repeat, e.g. 0,1,2,3,4; the other mappers run once "
+                        "per repeat (default: 0)")
     parser.add_argument("--synthetic", type=int, action="append", default=[],
                         metavar="N", help="also a synthetic scene of N images "
-                        "(make_synthetic_scene); may repeat")
+                        "(make_synthetic_scene beside --colmap), cached under "
+                        "<output_dir>/scenes/ and generated anew when the "
+                        "generator binary or its options change; may repeat")
     parser.add_argument("--skip_incremental", action="store_true",
-                        help="run only our global mapper")
+                        help="do not run the stock incremental mapper")
     parser.add_argument("--skip_global", action="store_true",
-                        help="run only the stock incremental mapper")
+                        help="do not run our global mapper")
     parser.add_argument("--stock_relative", action="append", default=[],
                         metavar="DATASET", help="judge this dataset (folder "
                         "name) against the stock mapper of this run, like "
@@ -1398,51 +1922,82 @@ def main():
     if args.self_test:
         self_test()
         return
-    command = command_line(parser, sys.argv, os.getcwd())
+    command, cwd = format_command(sys.argv, os.getcwd())
+    log("$ " + command)
     args.colmap = os.path.abspath(args.colmap)
     args.output_dir = os.path.abspath(args.output_dir)
 
     if not os.access(args.colmap, os.X_OK):
         sys.exit("error: %s is not an executable (build colmap_exe first or "
                  "pass --colmap)" % args.colmap)
+    if args.reference_colmap:
+        args.reference_colmap = os.path.abspath(args.reference_colmap)
+        check_reference(args.reference_colmap)
+    args.pose_thresholds = evaluator_pose_thresholds(args.colmap)
+    if args.pose_thresholds is None:
+        log("note: %s model_evaluator has no %s; AUC@0.5 stays empty" % (
+            args.colmap, POSE_THRESHOLDS_OPTION))
     datasets = find_datasets(args.datasets or [DEFAULT_DATASETS])
     os.makedirs(args.output_dir, exist_ok=True)
+    synthetic = []
     for num_images in args.synthetic:
         path = make_synthetic(args, num_images)
         if path:
             datasets.append(path)
+            synthetic.append(path)
     if not datasets:
         sys.exit("error: no dataset folder with a database.db found")
-    runs = []  # (mapper, seed)
+    mappers = []
     if not args.skip_global:
-        runs += [("global", seed) for seed in args.seeds]
+        mappers.append("global")
     if not args.skip_incremental:
-        runs.append(("incremental", None))
+        mappers.append("incremental")
+    if args.reference_colmap:
+        mappers.append("reference")
+    if not mappers:
+        sys.exit("error: no mapper to run")
 
+    def repeats_of(dataset):
+        if args.repeats is not None:
+            return args.repeats
+        return (DEFAULT_SYNTHETIC_REPEATS if dataset in synthetic
+                else DEFAULT_REPEATS)
+
+    repeats = {}
+    if any(d not in synthetic for d in datasets):
+        repeats["datasets"] = repeats_of(next(d for d in datasets
+                                              if d not in synthetic))
+    if synthetic:
+        repeats["synthetic scenes"] = repeats_of(synthetic[0])
     meta = {
         "date": datetime.datetime.now().strftime("%Y-%m-%d %H:%M"),
-        "machine": platform.processor() or platform.machine(),
-        "cpus": os.cpu_count(),
-        "colmap": args.colmap,
         "command": command,
+        "cwd": cwd,
+        "argv": sys.argv,
+        "machine": machine_info(),
+        "colmap": binary_info(args.colmap, REPO_DIR),
         "seeds": args.seeds,
+        "repeats": repeats,
+        "mappers": mappers,
+        "pose_auc_thresholds": args.pose_thresholds or "1,3,5,10",
     }
-    try:
-        with open("/proc/cpuinfo") as f:
-            match = re.search(r"model name\s*:\s*(.+)", f.read())
-            if match:
-                meta["machine"] = match.group(1).strip()
-    except OSError:
-        pass
+    if args.reference_colmap:
+        meta["reference_colmap"] = binary_info(args.reference_colmap)
+    for line in provenance_lines(meta):
+        log(line)
 
+    schedules = [(dataset, run_schedule(mappers, args.seeds,
+                                        repeats_of(dataset)))
+                 for dataset in datasets]
     records = []
-    total = len(datasets) * len(runs)
+    total = sum(len(schedule) for _, schedule in schedules)
     index = 0
     results_path = os.path.join(args.output_dir, "results.json")
-    for dataset in datasets:
-        for mapper, seed in runs:
+    for dataset, schedule in schedules:
+        for mapper, seed, repeat in schedule:
             index += 1
-            records.append(run_one(args, dataset, mapper, seed, index, total))
+            records.append(run_one(args, dataset, mapper, seed, index, total,
+                                   repeat, repeats_of(dataset)))
             # Written after every run so that an interrupted benchmark keeps
             # what it measured.
             with open(results_path, "w") as f:
@@ -1458,18 +2013,15 @@ def main():
                    "all_bars_met": met}, f, indent=2)
     with open(os.path.join(args.output_dir, "results.md"), "w") as f:
         f.write("# Benchmark: global_mapper vs. incremental mapper\n\n")
-        f.write("Command: `%s`\n\n" % command)
         f.write(table)
     plots = write_plots(summary_records(records), args.output_dir)
-    log("")
-    log("$ " + command)
     log("")
     log(table)
     log("Wrote %s" % ", ".join(
         [results_path, os.path.join(args.output_dir, "results.md")] + plots))
     if args.readme:
         auc_plot = next((p for p in plots if "auc" in p), None)
-        update_readme(args.readme, table, auc_plot, command)
+        update_readme(args.readme, table, auc_plot)
         log("Updated %s" % args.readme)
     if bars:
         log(met_line)
