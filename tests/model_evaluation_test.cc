@@ -385,6 +385,24 @@ TEST(ModelEvaluatorCommand, WritesJsonWithTheMetrics) {
   // 5 of 6 images within any threshold.
   EXPECT_NEAR(JsonNumber(json, "pos_auc@0.5"), 100.0 * 5.0 / 6.0, 1e-4);
   EXPECT_NE(output.find("Registered images: 5"), std::string::npos) << output;
+
+  // Other pose thresholds: at 0.5 degrees only the 6 exact pairs count.
+  ASSERT_EQ(testing::RunCommand(
+                testing::ColmapExecutable() + " model_evaluator --input_path " +
+                    model_dir + " --gt_path " + gt_dir + " --json_path " +
+                    json_path + " --pose_thresholds 0.5,1",
+                &output),
+            0)
+      << output;
+  std::ifstream file2(json_path);
+  std::stringstream buffer2;
+  buffer2 << file2.rdbuf();
+  EXPECT_NEAR(JsonNumber(buffer2.str(), "auc@0.5"), 100.0 * 6.0 / 15.0, 1e-6);
+  EXPECT_NEAR(JsonNumber(buffer2.str(), "auc@1"), 100.0 * 6.0 / 15.0, 1e-6);
+  EXPECT_NE(testing::RunCommand(
+                testing::ColmapExecutable() + " model_evaluator --input_path " +
+                model_dir + " --gt_path " + gt_dir + " --pose_thresholds 0,x"),
+            0);
 }
 
 TEST(ModelEvaluatorCommand, BadPathIsAOneLineError) {

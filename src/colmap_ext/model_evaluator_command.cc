@@ -45,6 +45,7 @@ int RunModelEvaluator(int argc, char** argv) {
   std::string gt_path;
   std::string json_path;
   std::string position_thresholds;
+  std::string pose_thresholds;
   glomap::ModelEvaluationOptions evaluation_options;
   double inlier_fraction =
       evaluation_options.alignment_inlier_fraction_of_scale;
@@ -63,6 +64,10 @@ int RunModelEvaluator(int argc, char** argv) {
       "Comma-separated distance thresholds, in ground-truth units, of the "
       "camera position AUC, e.g. 0.01,0.05,0.1.");
   options.AddDefaultOption(
+      "pose_thresholds", &pose_thresholds,
+      "Comma-separated angle thresholds in degrees of the pairwise pose AUC "
+      "(default 1,3,5,10; upstream's benchmark reports 0.5,1,5,10).");
+  options.AddDefaultOption(
       "alignment_inlier_fraction", &inlier_fraction,
       "RANSAC inlier threshold of the similarity alignment, as a fraction of "
       "the median distance of ground-truth cameras from their median.");
@@ -79,6 +84,17 @@ int RunModelEvaluator(int argc, char** argv) {
                  "separated by commas, got \""
               << position_thresholds << "\"." << std::endl;
     return EXIT_FAILURE;
+  }
+  if (!pose_thresholds.empty()) {
+    std::vector<double> thresholds_deg;
+    if (!ParseThresholds(pose_thresholds, &thresholds_deg) ||
+        thresholds_deg.empty()) {
+      std::cerr << "ERROR: --pose_thresholds must be positive angles in "
+                   "degrees separated by commas, got \""
+                << pose_thresholds << "\"." << std::endl;
+      return EXIT_FAILURE;
+    }
+    evaluation_options.pose_auc_thresholds_deg = thresholds_deg;
   }
   evaluation_options.alignment_inlier_fraction_of_scale = inlier_fraction;
   evaluation_options.max_position_error_fraction_of_scene = beyond_fraction;
