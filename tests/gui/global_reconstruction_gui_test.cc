@@ -174,6 +174,27 @@ QString StatusBarLabel(QMainWindow* window, const QString& prefix) {
   return "";
 }
 
+// A ModalDialogHandler callback for message boxes: records each box's text
+// in `texts` and answers it (Yes where the box has it, when `answer_yes`;
+// otherwise accept or reject, as `accept` says).
+std::function<bool(QWidget*)> RecordMessageBoxes(QStringList* texts,
+                                                 bool answer_yes,
+                                                 bool accept = false) {
+  return [texts, answer_yes, accept](QWidget* modal) {
+    QMessageBox* box = qobject_cast<QMessageBox*>(modal);
+    if (box == nullptr) return false;
+    *texts << box->text();
+    if (answer_yes && box->button(QMessageBox::Yes) != nullptr) {
+      box->button(QMessageBox::Yes)->click();
+    } else if (accept) {
+      box->accept();
+    } else {
+      box->reject();
+    }
+    return true;
+  };
+}
+
 // The visible status bar button labelled `text`, or null.
 QPushButton* StatusBarButton(QMainWindow* window, const QString& text) {
   for (QPushButton* button :
@@ -304,14 +325,8 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
 
   // Any message box during the run is a failure: record and close it.
   QStringList unexpected_messages;
-  ModalDialogHandler message_boxes([&](QWidget* modal) {
-    if (QMessageBox* box = qobject_cast<QMessageBox*>(modal)) {
-      unexpected_messages << box->text();
-      box->reject();
-      return true;
-    }
-    return false;
-  });
+  ModalDialogHandler message_boxes(
+      RecordMessageBoxes(&unexpected_messages, /*answer_yes=*/false));
 
   QElapsedTimer run_timer;
   run_timer.start();
@@ -438,14 +453,8 @@ TEST(GlobalReconstructionGui, CancelStopsMidRunWithinASecond) {
   GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
   window.show();
   QStringList messages;
-  ModalDialogHandler message_boxes([&](QWidget* modal) {
-    if (QMessageBox* box = qobject_cast<QMessageBox*>(modal)) {
-      messages << box->text();
-      box->reject();
-      return true;
-    }
-    return false;
-  });
+  ModalDialogHandler message_boxes(
+      RecordMessageBoxes(&messages, /*answer_yes=*/false));
   auto status_bar_text = [&]() { return StatusBarText(&window); };
 
   for (const char* stage :
@@ -500,14 +509,8 @@ TEST(GlobalReconstructionGui, LogTimeAndPauseFollowTheRun) {
   GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
   window.show();
   QStringList messages;
-  ModalDialogHandler message_boxes([&](QWidget* modal) {
-    if (QMessageBox* box = qobject_cast<QMessageBox*>(modal)) {
-      messages << box->text();
-      box->reject();
-      return true;
-    }
-    return false;
-  });
+  ModalDialogHandler message_boxes(
+      RecordMessageBoxes(&messages, /*answer_yes=*/false));
   const QString time_zero = "Time 00:00:00:00";
   auto time_label = [&]() { return StatusBarLabel(&window, "Time "); };
   auto progress_label = [&]() {
@@ -617,18 +620,8 @@ TEST(GlobalReconstructionGui, CancelAndCloseWhilePaused) {
   window.show();
   // "Do you really want to quit?" -> Yes; any other message is a failure.
   QStringList messages;
-  ModalDialogHandler message_boxes([&](QWidget* modal) {
-    if (QMessageBox* box = qobject_cast<QMessageBox*>(modal)) {
-      messages << box->text();
-      if (box->button(QMessageBox::Yes) != nullptr) {
-        box->button(QMessageBox::Yes)->click();
-      } else {
-        box->reject();
-      }
-      return true;
-    }
-    return false;
-  });
+  ModalDialogHandler message_boxes(
+      RecordMessageBoxes(&messages, /*answer_yes=*/true));
   // Starts a run and pauses it in its third stage.
   auto run_and_pause = [&]() {
     ui->RunAction()->trigger();
@@ -699,13 +692,10 @@ TEST(GlobalReconstructionGuiDeathTest,
 }
 
 TEST(GlobalReconstructionGui, ClosingTheWindowStopsTheRun) {
-  const std::string fountain_dir = FountainDir();
-  if (fountain_dir.empty()) {
-    GTEST_SKIP() << "Shared dataset fountain-P11 not found.";
-  }
   const std::string test_dir =
       glomap::testing::CreateTestDir("global_reconstruction_gui_close");
-  const std::string project_path = WriteProject(test_dir, fountain_dir);
+  const std::string project_path = WriteSyntheticProject(test_dir, 60);
+  ASSERT_FALSE(HasFailure());
   OptionManager options;
   std::string import_path;
   ParseGuiArguments(project_path, &options, &import_path);
@@ -715,23 +705,18 @@ TEST(GlobalReconstructionGui, ClosingTheWindowStopsTheRun) {
 
   // "Do you really want to quit?" -> Yes.
   QStringList questions;
-  ModalDialogHandler message_boxes([&](QWidget* modal) {
-    if (QMessageBox* box = qobject_cast<QMessageBox*>(modal)) {
-      questions << box->text();
-      if (box->button(QMessageBox::Yes) != nullptr) {
-        box->button(QMessageBox::Yes)->click();
-      } else {
-        box->reject();
-      }
-      return true;
-    }
-    return false;
-  });
+  ModalDialogHandler message_boxes(
+      RecordMessageBoxes(&questions, /*answer_yes=*/true));
 
   ui->RunAction()->trigger();
   ASSERT_TRUE(ui->IsRunning());
-  ProcessEventsFor(1500);
-  if (!ui->IsRunning()) GTEST_SKIP() << "The run finished before closing";
+  ASSERT_TRUE(WaitUntil(
+      [&]() {
+        return StatusBarText(&window).contains("Relative poses") ||
+               !ui->IsRunning();
+      },
+      kRunTimeoutMs));
+  ASSERT_TRUE(ui->IsRunning()) << "The run ended before Relative poses";
   QElapsedTimer close_timer;
   close_timer.start();
   EXPECT_TRUE(window.close());
@@ -767,14 +752,8 @@ TEST(GlobalReconstructionGui, ErrorShowsTheCommandLineMessage) {
   window.show();
 
   QStringList messages;
-  ModalDialogHandler message_boxes([&](QWidget* modal) {
-    if (QMessageBox* box = qobject_cast<QMessageBox*>(modal)) {
-      messages << box->text();
-      box->accept();
-      return true;
-    }
-    return false;
-  });
+  ModalDialogHandler message_boxes(
+      RecordMessageBoxes(&messages, /*answer_yes=*/false, /*accept=*/true));
   ui->RunAction()->trigger();
   ASSERT_TRUE(WaitUntil([&]() { return !ui->IsRunning(); }, 120000));
   ASSERT_TRUE(WaitUntil([&]() { return !messages.isEmpty(); }, 5000));
