@@ -174,6 +174,20 @@ QString StatusBarLabel(QMainWindow* window, const QString& prefix) {
   return "";
 }
 
+// Starts a global run from the menu and waits until the status bar shows
+// `stage`; true if the run is still going then (the stage is reached mid-run).
+bool RunUntilStage(GlobalReconstructionUi* ui, QMainWindow* window,
+                   const QString& stage) {
+  ui->RunAction()->trigger();
+  if (!ui->IsRunning()) return false;
+  WaitUntil(
+      [&]() {
+        return StatusBarText(window).contains(stage) || !ui->IsRunning();
+      },
+      kRunTimeoutMs);
+  return ui->IsRunning();
+}
+
 // A ModalDialogHandler callback for message boxes: records each box's text
 // in `texts` and answers it (Yes where the box has it, when `answer_yes`;
 // otherwise accept or reject, as `accept` says).
@@ -455,17 +469,12 @@ TEST(GlobalReconstructionGui, CancelStopsMidRunWithinASecond) {
   QStringList messages;
   ModalDialogHandler message_boxes(
       RecordMessageBoxes(&messages, /*answer_yes=*/false));
-  auto status_bar_text = [&]() { return StatusBarText(&window); };
 
   for (const char* stage :
        {"Relative poses", "Global positioning", "Bundle adjustment"}) {
     SCOPED_TRACE(stage);
-    ui->RunAction()->trigger();
-    ASSERT_TRUE(ui->IsRunning());
-    ASSERT_TRUE(WaitUntil(
-        [&]() { return status_bar_text().contains(stage) || !ui->IsRunning(); },
-        kRunTimeoutMs));
-    ASSERT_TRUE(ui->IsRunning()) << "The run ended before " << stage;
+    ASSERT_TRUE(RunUntilStage(ui, &window, stage))
+        << "The run ended before " << stage;
     QPushButton* cancel = StatusBarButton(&window, "Cancel");
     ASSERT_NE(cancel, nullptr);
     QElapsedTimer cancel_timer;
@@ -476,8 +485,8 @@ TEST(GlobalReconstructionGui, CancelStopsMidRunWithinASecond) {
     EXPECT_LT(cancel_timer.elapsed(), 1000) << "Cancel is not prompt";
     EXPECT_TRUE(ui->LastStatus().cancelled()) << ui->LastStatus().message();
     EXPECT_EQ(ui->Models().Size(), 0u);
-    EXPECT_TRUE(status_bar_text().contains("cancelled"))
-        << status_bar_text().toStdString();
+    EXPECT_TRUE(StatusBarText(&window).contains("cancelled"))
+        << StatusBarText(&window).toStdString();
     EXPECT_TRUE(ui->RunAction()->isEnabled());
   }
   EXPECT_TRUE(messages.isEmpty()) << messages.join("\n").toStdString();
@@ -624,15 +633,8 @@ TEST(GlobalReconstructionGui, CancelAndCloseWhilePaused) {
       RecordMessageBoxes(&messages, /*answer_yes=*/true));
   // Starts a run and pauses it in its third stage.
   auto run_and_pause = [&]() {
-    ui->RunAction()->trigger();
-    ASSERT_TRUE(ui->IsRunning());
-    ASSERT_TRUE(WaitUntil(
-        [&]() {
-          return StatusBarText(&window).contains("Relative poses") ||
-                 !ui->IsRunning();
-        },
-        kRunTimeoutMs));
-    ASSERT_TRUE(ui->IsRunning()) << "The run ended before Relative poses";
+    ASSERT_TRUE(RunUntilStage(ui, &window, "Relative poses"))
+        << "The run ended before Relative poses";
     QPushButton* pause = StatusBarButton(&window, "Pause");
     ASSERT_NE(pause, nullptr);
     pause->click();
@@ -708,15 +710,8 @@ TEST(GlobalReconstructionGui, ClosingTheWindowStopsTheRun) {
   ModalDialogHandler message_boxes(
       RecordMessageBoxes(&questions, /*answer_yes=*/true));
 
-  ui->RunAction()->trigger();
-  ASSERT_TRUE(ui->IsRunning());
-  ASSERT_TRUE(WaitUntil(
-      [&]() {
-        return StatusBarText(&window).contains("Relative poses") ||
-               !ui->IsRunning();
-      },
-      kRunTimeoutMs));
-  ASSERT_TRUE(ui->IsRunning()) << "The run ended before Relative poses";
+  ASSERT_TRUE(RunUntilStage(ui, &window, "Relative poses"))
+      << "The run ended before Relative poses";
   QElapsedTimer close_timer;
   close_timer.start();
   EXPECT_TRUE(window.close());
