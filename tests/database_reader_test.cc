@@ -14,7 +14,7 @@
 
 #include "base/database.h"
 #include "estimators/two_view_geometry.h"
-#include "glomap/synthetic_scene.h"
+#include "tests/support/synthetic_scene.h"
 #include "tests/support/test_paths.h"
 
 namespace glomap {

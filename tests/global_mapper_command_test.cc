@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "base/reconstruction.h"
-#include "glomap/synthetic_scene.h"
+#include "tests/support/synthetic_scene.h"
 #include "tests/support/test_paths.h"
 
 namespace glomap {

@@ -10,7 +10,7 @@
 #include <string>
 #include <system_error>
 
-#include "glomap/synthetic_scene.h"
+#include "tests/support/synthetic_scene.h"
 #include "tests/support/test_paths.h"
 
 namespace glomap {

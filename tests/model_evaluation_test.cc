@@ -1,6 +1,6 @@
 // Each metric of the model evaluator on hand-made cases with known answers,
 // and the `colmap model_evaluator` command end to end.
-#include "glomap/model_evaluation.h"
+#include "colmap_ext/model_evaluation.h"
 
 #include <gtest/gtest.h>
 

@@ -7,7 +7,7 @@
 #include "base/pose.h"
 #include "base/similarity_transform.h"
 #include "glomap/database_reader.h"
-#include "glomap/synthetic_scene.h"
+#include "tests/support/synthetic_scene.h"
 #include "tests/support/test_paths.h"
 
 namespace glomap {

@@ -1,6 +1,6 @@
 // colmap model_evaluator: accuracy of a model against a ground-truth model
 // (pairwise pose AUC and camera position errors, see
-// glomap/model_evaluation.h), as text and optionally as a JSON object.
+// model_evaluation.h), as text and optionally as a JSON object.
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
@@ -10,7 +10,7 @@
 
 #include "base/reconstruction.h"
 #include "colmap_ext/commands.h"
-#include "glomap/model_evaluation.h"
+#include "colmap_ext/model_evaluation.h"
 #include "util/option_manager.h"
 
 namespace colmap {

@@ -20,7 +20,7 @@
 #include "base/database.h"
 #include "colmap_ext/global_mapper_options.h"
 #include "colmap_ext/terminate_handler.h"
-#include "glomap/synthetic_scene.h"
+#include "tests/support/synthetic_scene.h"
 #include "gui/global_mapper_options_dialog.h"
 #include "gui/global_reconstruction_ui.h"
 #include "tests/support/test_paths.h"

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "glomap/database_reader.h"
-#include "glomap/synthetic_scene.h"
+#include "tests/support/synthetic_scene.h"
 
 namespace {
 

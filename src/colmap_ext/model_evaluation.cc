@@ -1,4 +1,4 @@
-#include "glomap/model_evaluation.h"
+#include "colmap_ext/model_evaluation.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>

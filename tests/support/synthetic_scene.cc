@@ -1,4 +1,4 @@
-#include "glomap/synthetic_scene.h"
+#include "tests/support/synthetic_scene.h"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
