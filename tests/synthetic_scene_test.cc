@@ -1,7 +1,9 @@
 #include "tests/support/synthetic_scene.h"
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -9,6 +11,7 @@
 
 #include "base/database.h"
 #include "base/essential_matrix.h"
+#include "base/gps.h"
 #include "base/pose.h"
 #include "estimators/two_view_geometry.h"
 #include "glomap/database_reader.h"
@@ -414,6 +417,9 @@ TEST(SyntheticScene, DefaultOptionsMakeNoFailureShapes) {
   EXPECT_TRUE(shapes.pure_rotation_image_ids.empty());
   EXPECT_TRUE(shapes.long_baseline_image_ids.empty());
   EXPECT_EQ(shapes.weak_bridge_pair.first, 0);
+  EXPECT_TRUE(shapes.prior_positions.empty());
+  EXPECT_TRUE(shapes.prior_outlier_image_ids.empty());
+  EXPECT_TRUE(shapes.prior_missing_image_ids.empty());
 }
 
 TEST(SyntheticScene, WeakGroup) {
@@ -756,6 +762,398 @@ TEST(SyntheticScene, Errors) {
   status = WriteSyntheticScene(SyntheticSceneOptions(),
                                dir + "/no/such/folder/db.db", &gt2);
   EXPECT_FALSE(status.ok());
+}
+
+// The images of a database as COLMAP 3.8 reads them, by id.
+std::map<colmap::image_t, colmap::Image> ReadDatabaseImages(
+    const std::string& database_path) {
+  colmap::Database database(database_path);
+  std::map<colmap::image_t, colmap::Image> images;
+  for (colmap::Image& image : database.ReadAllImages()) {
+    images.emplace(image.ImageId(), std::move(image));
+  }
+  return images;
+}
+
+// Every row of a query, with each value's type and bytes.
+std::string DumpQuery(const std::string& database_path,
+                      const std::string& query) {
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open_v2(database_path.c_str(), &db, SQLITE_OPEN_READONLY,
+                            nullptr),
+            SQLITE_OK);
+  sqlite3_stmt* stmt = nullptr;
+  EXPECT_EQ(sqlite3_prepare_v2(db, query.c_str(), -1, &stmt, nullptr),
+            SQLITE_OK)
+      << query;
+  std::string dump;
+  size_t num_rows = 0;
+  while (stmt != nullptr && sqlite3_step(stmt) == SQLITE_ROW) {
+    ++num_rows;
+    for (int c = 0; c < sqlite3_column_count(stmt); ++c) {
+      const int type = sqlite3_column_type(stmt, c);
+      const void* bytes = type == SQLITE_BLOB ? sqlite3_column_blob(stmt, c)
+                                              : sqlite3_column_text(stmt, c);
+      dump += std::to_string(type) + ":";
+      if (bytes != nullptr) {
+        dump.append(static_cast<const char*>(bytes),
+                    sqlite3_column_bytes(stmt, c));
+      }
+      dump += '|';
+    }
+    dump += '\n';
+  }
+  sqlite3_finalize(stmt);
+  sqlite3_close(db);
+  return std::to_string(num_rows) + " rows\n" + dump;
+}
+
+// Everything in a database but the position priors.
+std::string DumpAllButPositionPriors(const std::string& database_path) {
+  std::string dump;
+  for (const std::string query :
+       {"SELECT * FROM cameras ORDER BY camera_id",
+        "SELECT image_id, name, camera_id, prior_qw, prior_qx, prior_qy, "
+        "prior_qz FROM images ORDER BY image_id",
+        "SELECT * FROM keypoints ORDER BY image_id",
+        "SELECT * FROM descriptors ORDER BY image_id",
+        "SELECT * FROM matches ORDER BY pair_id",
+        "SELECT * FROM two_view_geometries ORDER BY pair_id"}) {
+    dump += query + "\n" + DumpQuery(database_path, query);
+  }
+  return dump;
+}
+
+// Whether two lists of priors are equal, NaN (no prior) matching NaN.
+bool SamePriors(const std::vector<Eigen::Vector3d>& priors1,
+                const std::vector<Eigen::Vector3d>& priors2) {
+  if (priors1.size() != priors2.size()) return false;
+  for (size_t k = 0; k < priors1.size(); ++k) {
+    for (int i = 0; i < 3; ++i) {
+      const double a = priors1[k](i), b = priors2[k](i);
+      if (!(a == b || (std::isnan(a) && std::isnan(b)))) return false;
+    }
+  }
+  return true;
+}
+
+// Metric positions of priors stored as GPS around `origin` (lat, lon, alt).
+std::vector<Eigen::Vector3d> GpsToEnu(const std::vector<Eigen::Vector3d>& lla,
+                                      const Eigen::Vector3d& origin) {
+  // COLMAP 3.8's EllToENU measures from its first point: put the origin
+  // there.
+  std::vector<Eigen::Vector3d> ell = {origin};
+  ell.insert(ell.end(), lla.begin(), lla.end());
+  std::vector<Eigen::Vector3d> enu =
+      colmap::GPSTransform(colmap::GPSTransform::WGS84)
+          .EllToENU(ell, origin.x(), origin.y());
+  EXPECT_LT(enu[0].norm(), 1e-9);
+  enu.erase(enu.begin());
+  return enu;
+}
+
+TEST(SyntheticScene, NoPositionPriorsByDefault) {
+  SyntheticSceneOptions options;
+  EXPECT_LT(options.prior_position_noise_m, 0);
+  options.num_images = 12;
+  options.verification = "ground_truth";
+  Scene scene;
+  SyntheticSceneShapes shapes;
+  MakeScene(options, "no_priors", &scene, &shapes);
+  for (const auto& [image_id, image] :
+       ReadDatabaseImages(scene.database_path)) {
+    EXPECT_FALSE(image.HasTvecPrior()) << image_id;
+    EXPECT_TRUE(image.TvecPrior().array().isNaN().all()) << image_id;
+    EXPECT_FALSE(scene.reconstruction.Image(image_id).HasTvecPrior());
+  }
+  EXPECT_EQ(DumpQuery(scene.database_path,
+                      "SELECT image_id FROM images WHERE prior_tx IS NOT NULL "
+                      "OR prior_ty IS NOT NULL OR prior_tz IS NOT NULL"),
+            "0 rows\n");
+  EXPECT_TRUE(shapes.prior_positions.empty());
+}
+
+TEST(SyntheticScene, PositionPriors) {
+  SyntheticSceneOptions options;
+  options.num_images = 200;
+  options.verification = "ground_truth";
+  options.max_pairs_per_image = 4;
+  options.prior_position_noise_m = 0.5;
+  options.prior_outlier_ratio = 0.1;
+  options.prior_outlier_min_m = 20;
+  options.prior_outlier_max_m = 100;
+  options.prior_missing_ratio = 0.05;
+  Scene scene;
+  SyntheticSceneShapes shapes;
+  MakeScene(options, "priors", &scene, &shapes);
+  ASSERT_EQ(shapes.prior_positions.size(), 200u);
+  ASSERT_EQ(shapes.prior_outlier_image_ids.size(), 20u);
+  ASSERT_EQ(shapes.prior_missing_image_ids.size(), 10u);
+  for (const colmap::image_t image_id : shapes.prior_missing_image_ids) {
+    EXPECT_FALSE(Contains(shapes.prior_outlier_image_ids, image_id));
+  }
+
+  const std::map<colmap::image_t, colmap::Image> images =
+      ReadDatabaseImages(scene.database_path);
+  ASSERT_EQ(images.size(), 200u);
+  Eigen::Vector3d sum_error = Eigen::Vector3d::Zero();
+  double sum_squared_error = 0;
+  double max_axis_error = 0;
+  size_t num_inliers = 0;
+  for (const auto& [image_id, image] : images) {
+    SCOPED_TRACE(image.Name());
+    const Eigen::Vector3d center =
+        scene.ground_truth.Image(image_id).ProjectionCenter();
+    // The project's reader reads the same priors as COLMAP's.
+    const colmap::Image& read = scene.reconstruction.Image(image_id);
+    if (Contains(shapes.prior_missing_image_ids, image_id)) {
+      EXPECT_FALSE(image.HasTvecPrior());
+      EXPECT_TRUE(image.TvecPrior().array().isNaN().all());
+      EXPECT_FALSE(read.HasTvecPrior());
+      EXPECT_TRUE(shapes.prior_positions[image_id - 1].array().isNaN().all());
+      continue;
+    }
+    ASSERT_TRUE(image.HasTvecPrior());
+    EXPECT_EQ(image.TvecPrior(), shapes.prior_positions[image_id - 1]);
+    EXPECT_EQ(read.TvecPrior(), image.TvecPrior());
+    const Eigen::Vector3d error = image.TvecPrior() - center;
+    if (Contains(shapes.prior_outlier_image_ids, image_id)) {
+      EXPECT_GE(error.norm(), 20 - 1e-9);
+      EXPECT_LE(error.norm(), 100 + 1e-9);
+      continue;
+    }
+    ++num_inliers;
+    sum_error += error;
+    sum_squared_error += error.squaredNorm();
+    max_axis_error = std::max(max_axis_error, error.cwiseAbs().maxCoeff());
+  }
+  ASSERT_EQ(num_inliers, 170u);
+  // Zero-mean noise of 0.5 m per axis: the RMS 3D error is 0.5 * sqrt(3) m
+  // (510 draws: the estimate's standard deviation is ~3%).
+  const double rms_error = std::sqrt(sum_squared_error / num_inliers);
+  EXPECT_NEAR(rms_error, 0.5 * std::sqrt(3.0), 0.1 * 0.5 * std::sqrt(3.0));
+  EXPECT_LT((sum_error / num_inliers).cwiseAbs().maxCoeff(), 0.15);
+  EXPECT_LT(max_axis_error, 5 * 0.5);
+}
+
+TEST(SyntheticScene, PositionPriorsChangeNothingElse) {
+  for (const std::string layout : {"ring", "forward", "grid"}) {
+    SCOPED_TRACE(layout);
+    SyntheticSceneOptions options;
+    // COLMAP's verification on the ring (its RANSAC takes ~50 ms a pair).
+    options.num_images = layout == "ring" ? 16 : 30;
+    options.layout = layout;
+    options.verification = layout == "ring" ? "colmap" : "ground_truth";
+    options.max_pairs_per_image = 4;
+    options.wrong_match_ratio = 0.2;
+    options.num_threads = 2;
+    Scene plain, with_priors, as_gps;
+    MakeScene(options, "priors_off_" + layout, &plain);
+    options.prior_position_noise_m = 3;
+    options.prior_outlier_ratio = 0.2;
+    options.prior_missing_ratio = 0.1;
+    MakeScene(options, "priors_on_" + layout, &with_priors);
+    options.prior_as_gps = true;
+    MakeScene(options, "priors_gps_" + layout, &as_gps);
+
+    const std::string plain_dump =
+        DumpAllButPositionPriors(plain.database_path);
+    EXPECT_EQ(plain_dump, DumpAllButPositionPriors(with_priors.database_path));
+    EXPECT_EQ(plain_dump, DumpAllButPositionPriors(as_gps.database_path));
+    EXPECT_NE(DumpQuery(plain.database_path, "SELECT * FROM images"),
+              DumpQuery(with_priors.database_path, "SELECT * FROM images"));
+    EXPECT_EQ(ContentDigest(plain), ContentDigest(with_priors));
+    EXPECT_EQ(ContentDigest(plain), ContentDigest(as_gps));
+    // The same ground truth.
+    ASSERT_EQ(plain.ground_truth.NumPoints3D(),
+              with_priors.ground_truth.NumPoints3D());
+    for (const auto& [image_id, image] : plain.ground_truth.Images()) {
+      const colmap::Image& other = with_priors.ground_truth.Image(image_id);
+      EXPECT_EQ(image.Qvec(), other.Qvec());
+      EXPECT_EQ(image.Tvec(), other.Tvec());
+    }
+  }
+}
+
+TEST(SyntheticScene, PositionPriorsAreDeterministic) {
+  SyntheticSceneOptions options;
+  options.num_images = 40;
+  options.verification = "ground_truth";
+  options.max_pairs_per_image = 4;
+  options.prior_position_noise_m = 1;
+  options.prior_outlier_ratio = 0.1;
+  options.prior_missing_ratio = 0.1;
+  Scene first, second, other_seed, more_noise, no_outliers;
+  SyntheticSceneShapes first_shapes, second_shapes, other_shapes, more_shapes,
+      no_outlier_shapes;
+  MakeScene(options, "priors_seed_a", &first, &first_shapes);
+  MakeScene(options, "priors_seed_b", &second, &second_shapes);
+  options.prior_position_noise_m = 2;
+  MakeScene(options, "priors_noise_2", &more_noise, &more_shapes);
+  options.prior_position_noise_m = 1;
+  options.prior_outlier_ratio = 0;
+  MakeScene(options, "priors_no_outliers", &no_outliers, &no_outlier_shapes);
+  options.prior_outlier_ratio = 0.1;
+  options.random_seed = 1;
+  MakeScene(options, "priors_seed_c", &other_seed, &other_shapes);
+
+  EXPECT_EQ(DumpQuery(first.database_path, "SELECT * FROM images"),
+            DumpQuery(second.database_path, "SELECT * FROM images"));
+  EXPECT_EQ(first_shapes.prior_outlier_image_ids,
+            second_shapes.prior_outlier_image_ids);
+  EXPECT_EQ(first_shapes.prior_missing_image_ids,
+            second_shapes.prior_missing_image_ids);
+  EXPECT_TRUE(
+      SamePriors(first_shapes.prior_positions, second_shapes.prior_positions));
+  EXPECT_FALSE(
+      SamePriors(first_shapes.prior_positions, other_shapes.prior_positions));
+  // Every image has its own noise: the noise level scales it, and the
+  // outlier ratio changes only the outliers' priors.
+  EXPECT_EQ(first_shapes.prior_outlier_image_ids,
+            more_shapes.prior_outlier_image_ids);
+  for (colmap::image_t image_id = 1; image_id <= 40; ++image_id) {
+    SCOPED_TRACE(image_id);
+    if (Contains(first_shapes.prior_missing_image_ids, image_id)) continue;
+    const Eigen::Vector3d center =
+        first.ground_truth.Image(image_id).ProjectionCenter();
+    const Eigen::Vector3d& prior = first_shapes.prior_positions[image_id - 1];
+    if (Contains(first_shapes.prior_outlier_image_ids, image_id)) continue;
+    EXPECT_LT(((more_shapes.prior_positions[image_id - 1] - center) -
+               2 * (prior - center))
+                  .norm(),
+              1e-9);
+    EXPECT_EQ(no_outlier_shapes.prior_positions[image_id - 1], prior);
+  }
+}
+
+TEST(SyntheticScene, PositionPriorsAsGps) {
+  // Zurich (the default) and a south-western origin; the ring is centred on
+  // its object, the grid flies 40 m above ground.
+  const std::vector<std::pair<std::string, Eigen::Vector3d>> cases = {
+      {"ring", Eigen::Vector3d(47.3769, 8.5417, 400)},
+      {"grid", Eigen::Vector3d(-33.9249, -70.6693, 520)}};
+  for (const auto& [layout, origin] : cases) {
+    SCOPED_TRACE(layout);
+    SyntheticSceneOptions options;
+    options.num_images = 60;
+    options.layout = layout;
+    options.verification = "ground_truth";
+    options.max_pairs_per_image = 4;
+    options.prior_position_noise_m = 2;
+    options.prior_outlier_ratio = 0.1;
+    options.prior_missing_ratio = 0.1;
+    options.prior_gps_origin = origin;
+    Scene metric, gps;
+    SyntheticSceneShapes metric_shapes, gps_shapes;
+    MakeScene(options, "metric_" + layout, &metric, &metric_shapes);
+    options.prior_as_gps = true;
+    MakeScene(options, "gps_" + layout, &gps, &gps_shapes);
+    // The same simulated positions, only stored differently.
+    ASSERT_TRUE(
+        SamePriors(metric_shapes.prior_positions, gps_shapes.prior_positions));
+    EXPECT_EQ(metric_shapes.prior_outlier_image_ids,
+              gps_shapes.prior_outlier_image_ids);
+
+    const std::map<colmap::image_t, colmap::Image> metric_images =
+        ReadDatabaseImages(metric.database_path);
+    const std::map<colmap::image_t, colmap::Image> gps_images =
+        ReadDatabaseImages(gps.database_path);
+    std::vector<Eigen::Vector3d> lla, expected;
+    for (const auto& [image_id, image] : gps_images) {
+      if (Contains(gps_shapes.prior_missing_image_ids, image_id)) {
+        EXPECT_FALSE(image.HasTvecPrior());
+        continue;
+      }
+      ASSERT_TRUE(image.HasTvecPrior());
+      lla.push_back(image.TvecPrior());
+      expected.push_back(metric_images.at(image_id).TvecPrior());
+      // Latitude, longitude and altitude, near the origin.
+      EXPECT_LT(std::abs(image.TvecPrior(0) - origin.x()), 0.01);
+      EXPECT_LT(std::abs(image.TvecPrior(1) - origin.y()), 0.01);
+      if (!Contains(gps_shapes.prior_outlier_image_ids, image_id)) {
+        EXPECT_NEAR(image.TvecPrior(2), origin.z() + expected.back().z(), 0.01);
+      }
+    }
+    ASSERT_EQ(lla.size(), 54u);
+    const std::vector<Eigen::Vector3d> enu = GpsToEnu(lla, origin);
+    double max_error_m = 0;
+    for (size_t k = 0; k < enu.size(); ++k) {
+      max_error_m = std::max(max_error_m, (enu[k] - expected[k]).norm());
+    }
+    EXPECT_LT(max_error_m, 1e-3);
+    // In fact it is far below a millimetre.
+    EXPECT_LT(max_error_m, 1e-6);
+  }
+}
+
+TEST(SyntheticScene, PositionPriorOptions) {
+  SyntheticSceneOptions options;
+  options.prior_position_noise_m = 0;  // exact priors
+  EXPECT_TRUE(options.Check());
+  options.prior_position_noise_m = std::nan("");
+  EXPECT_FALSE(options.Check());
+  // The prior options need priors.
+  for (int k = 0; k < 3; ++k) {
+    options = SyntheticSceneOptions();
+    if (k == 0) options.prior_outlier_ratio = 0.1;
+    if (k == 1) options.prior_missing_ratio = 0.1;
+    if (k == 2) options.prior_as_gps = true;
+    EXPECT_FALSE(options.Check()) << k;
+    options.prior_position_noise_m = 1;
+    EXPECT_TRUE(options.Check()) << k;
+  }
+  options = SyntheticSceneOptions();
+  options.prior_position_noise_m = 1;
+  options.prior_outlier_ratio = 1.5;
+  EXPECT_FALSE(options.Check());
+  options.prior_outlier_ratio = 0.6;
+  options.prior_missing_ratio = 0.5;
+  EXPECT_FALSE(options.Check());
+  options.prior_missing_ratio = 0.4;
+  EXPECT_TRUE(options.Check());
+  options.prior_outlier_min_m = 200;  // above the maximum
+  EXPECT_FALSE(options.Check());
+  options.prior_outlier_min_m = -1;
+  EXPECT_FALSE(options.Check());
+  options.prior_outlier_min_m = 20;
+  options.prior_gps_origin = Eigen::Vector3d(95, 8, 400);
+  EXPECT_FALSE(options.Check());
+  options.prior_gps_origin = Eigen::Vector3d(47, 200, 400);
+  EXPECT_FALSE(options.Check());
+  options.prior_gps_origin = Eigen::Vector3d(-47, -179, -20);
+  EXPECT_TRUE(options.Check());
+
+  // All images displaced, or none with a prior.
+  const std::string dir = testing::CreateTestDir("synthetic_scene_priors_all");
+  options = SyntheticSceneOptions();
+  options.num_images = 10;
+  options.verification = "ground_truth";
+  options.prior_position_noise_m = 0;
+  options.prior_missing_ratio = 1;
+  colmap::Reconstruction gt;
+  SyntheticSceneShapes shapes;
+  ASSERT_TRUE(
+      WriteSyntheticScene(options, dir + "/none.db", &gt, &shapes).ok());
+  EXPECT_EQ(shapes.prior_missing_image_ids.size(), 10u);
+  for (const auto& [image_id, image] : ReadDatabaseImages(dir + "/none.db")) {
+    EXPECT_FALSE(image.HasTvecPrior());
+  }
+  options.prior_missing_ratio = 0;
+  options.prior_outlier_ratio = 1;
+  colmap::Reconstruction gt2;
+  ASSERT_TRUE(
+      WriteSyntheticScene(options, dir + "/all.db", &gt2, &shapes).ok());
+  EXPECT_EQ(shapes.prior_outlier_image_ids.size(), 10u);
+  EXPECT_TRUE(shapes.prior_missing_image_ids.empty());
+  options.prior_outlier_ratio = 0;
+  colmap::Reconstruction gt3;
+  ASSERT_TRUE(
+      WriteSyntheticScene(options, dir + "/exact.db", &gt3, &shapes).ok());
+  for (const auto& [image_id, image] : ReadDatabaseImages(dir + "/exact.db")) {
+    EXPECT_LT(
+        (image.TvecPrior() - gt3.Image(image_id).ProjectionCenter()).norm(),
+        1e-12);
+  }
 }
 
 }  // namespace

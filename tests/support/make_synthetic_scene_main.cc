@@ -4,12 +4,20 @@
 //   make_synthetic_scene --output_path DIR [--num_images N ...]
 //
 // DIR/database.db is a new COLMAP 3.8 database (as after feature extraction
-// and matching); DIR/gt/ is the ground truth as a COLMAP text model.
+// and matching); DIR/gt/ is the ground truth as a COLMAP text model (metres,
+// x east, y north, z up). With --prior_position_noise_m >= 0 the database
+// also holds simulated position priors, listed with their truth in
+// DIR/priors.txt.
 
+#include <algorithm>
 #include <boost/program_options.hpp>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iomanip>
 #include <iostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -57,6 +65,91 @@ void PrintShapes(const glomap::SyntheticSceneShapes& shapes) {
               << shapes.weak_bridge_pair.first << ": "
               << JoinIds(shapes.weak_bridge_half_image_ids) << std::endl;
   }
+  if (!shapes.prior_outlier_image_ids.empty()) {
+    std::cout << "Prior outliers: images "
+              << JoinIds(shapes.prior_outlier_image_ids) << std::endl;
+  }
+  if (!shapes.prior_missing_image_ids.empty()) {
+    std::cout << "Images without prior: "
+              << JoinIds(shapes.prior_missing_image_ids) << std::endl;
+  }
+}
+
+// "lat,lon,alt" into a vector; false if it is not three numbers.
+bool ParseGpsOrigin(const std::string& text, Eigen::Vector3d* origin) {
+  std::stringstream stream(text);
+  std::string field;
+  int k = 0;
+  while (std::getline(stream, field, ',')) {
+    if (k == 3) return false;
+    try {
+      size_t end = 0;
+      (*origin)(k) = std::stod(field, &end);
+      if (field.find_first_not_of(" \t", end) != std::string::npos) {
+        return false;
+      }
+    } catch (const std::exception&) {
+      return false;
+    }
+    ++k;
+  }
+  return k == 3;
+}
+
+// DIR/priors.txt: per image, what kind of prior it got, its true centre and
+// its metric prior (scene frame), so that tests can check what a mapper
+// makes of them (e.g. that it names the outliers).
+bool WritePriors(const glomap::SyntheticSceneOptions& options,
+                 const glomap::SyntheticSceneShapes& shapes,
+                 const colmap::Reconstruction& ground_truth,
+                 const std::string& path) {
+  std::ofstream file(path);
+  if (!file) return false;
+  file << "# Simulated camera position priors of a synthetic scene "
+          "(make_synthetic_scene).\n"
+       << "# Units: metres; frame: the ground truth's (x east, y north, z "
+          "up).\n"
+       << "# prior_position_noise_m " << options.prior_position_noise_m
+       << " prior_outlier_ratio " << options.prior_outlier_ratio
+       << " prior_outlier_min_m " << options.prior_outlier_min_m
+       << " prior_outlier_max_m " << options.prior_outlier_max_m
+       << " prior_missing_ratio " << options.prior_missing_ratio
+       << " random_seed " << options.random_seed << "\n";
+  if (options.prior_as_gps) {
+    file << std::setprecision(10)
+         << "# The database stores them as GPS (prior_tx, prior_ty, prior_tz "
+            "= latitude deg, longitude deg, WGS84 altitude m) around the "
+            "origin "
+         << options.prior_gps_origin.x() << " " << options.prior_gps_origin.y()
+         << " " << options.prior_gps_origin.z() << "\n";
+  } else {
+    file << "# The database stores them as they are here (prior_tx, "
+            "prior_ty, prior_tz in metres).\n";
+  }
+  file << "# KIND: inlier (true centre + noise), outlier (displaced), "
+          "missing (NULL in the database; prior and error nan).\n"
+       << "# IMAGE_ID NAME KIND TRUE_X TRUE_Y TRUE_Z PRIOR_X PRIOR_Y "
+          "PRIOR_Z ERROR_M\n";
+  const auto contains = [](const std::vector<colmap::image_t>& ids,
+                           colmap::image_t id) {
+    return std::find(ids.begin(), ids.end(), id) != ids.end();
+  };
+  file << std::fixed << std::setprecision(6);
+  for (size_t k = 0; k < shapes.prior_positions.size(); ++k) {
+    const colmap::image_t image_id = static_cast<colmap::image_t>(k + 1);
+    const colmap::Image& image = ground_truth.Image(image_id);
+    const Eigen::Vector3d center = image.ProjectionCenter();
+    const Eigen::Vector3d& prior = shapes.prior_positions[k];
+    const char* kind =
+        contains(shapes.prior_missing_image_ids, image_id)   ? "missing"
+        : contains(shapes.prior_outlier_image_ids, image_id) ? "outlier"
+                                                             : "inlier";
+    file << image_id << " " << image.Name() << " " << kind << " " << center.x()
+         << " " << center.y() << " " << center.z() << " " << prior.x() << " "
+         << prior.y() << " " << prior.z() << " " << (prior - center).norm()
+         << "\n";
+  }
+  return static_cast<bool>(file);
 }
 
 }  // namespace
@@ -67,6 +160,13 @@ int main(int argc, char** argv) {
   std::string output_path;
   int prior_focal_length = options.prior_focal_length ? 1 : 0;
   int weak_bridge = options.weak_bridge ? 1 : 0;
+  int prior_as_gps = options.prior_as_gps ? 1 : 0;
+  std::ostringstream default_gps_origin;
+  default_gps_origin.precision(10);
+  default_gps_origin << options.prior_gps_origin.x() << ","
+                     << options.prior_gps_origin.y() << ","
+                     << options.prior_gps_origin.z();
+  std::string prior_gps_origin = default_gps_origin.str();
 
   po::options_description description("make_synthetic_scene options");
   description.add_options()("help,h", "Print this help.")(
@@ -177,6 +277,41 @@ int main(int argc, char** argv) {
       po::value<int>(&options.weak_bridge_max_matches)
           ->default_value(options.weak_bridge_max_matches),
       "True raw matches kept at most in the weak bridge's pair.")(
+      "prior_position_noise_m",
+      po::value<double>(&options.prior_position_noise_m)
+          ->default_value(options.prior_position_noise_m),
+      "Simulated position priors (GPS) in the database: true camera centre "
+      "plus Gaussian noise of this standard deviation per axis, metres (the "
+      "scene unit); < 0: no priors. Listed in <output_path>/priors.txt.")(
+      "prior_outlier_ratio",
+      po::value<double>(&options.prior_outlier_ratio)
+          ->default_value(options.prior_outlier_ratio),
+      "Fraction of the images whose prior is displaced by a random "
+      "direction times a length in [prior_outlier_min_m, "
+      "prior_outlier_max_m].")(
+      "prior_outlier_min_m",
+      po::value<double>(&options.prior_outlier_min_m)
+          ->default_value(options.prior_outlier_min_m),
+      "Shortest displacement of an outlier prior, metres.")(
+      "prior_outlier_max_m",
+      po::value<double>(&options.prior_outlier_max_m)
+          ->default_value(options.prior_outlier_max_m),
+      "Longest displacement of an outlier prior, metres.")(
+      "prior_missing_ratio",
+      po::value<double>(&options.prior_missing_ratio)
+          ->default_value(options.prior_missing_ratio),
+      "Fraction of the images without a prior (NULL).")(
+      "prior_as_gps",
+      po::value<int>(&prior_as_gps)->default_value(prior_as_gps),
+      "1: store priors as latitude, longitude, altitude (WGS84), the scene "
+      "being east-north-up around --prior_gps_origin; 0: metric positions "
+      "in the scene frame.")(
+      "prior_gps_origin",
+      po::value<std::string>(&prior_gps_origin)
+          ->default_value(prior_gps_origin),
+      "Latitude (deg), longitude (deg), altitude (m) of the scene origin, "
+      "comma-separated (write --prior_gps_origin=-33.9,18.4,10 for a "
+      "negative latitude).")(
       "num_threads",
       po::value<int>(&options.num_threads)->default_value(options.num_threads),
       "Threads (-1: all cores).")(
@@ -203,6 +338,16 @@ int main(int argc, char** argv) {
     return Fail("--weak_bridge must be 0 or 1");
   }
   options.weak_bridge = weak_bridge == 1;
+  if (prior_as_gps != 0 && prior_as_gps != 1) {
+    return Fail("--prior_as_gps must be 0 or 1");
+  }
+  options.prior_as_gps = prior_as_gps == 1;
+  if (!ParseGpsOrigin(prior_gps_origin, &options.prior_gps_origin)) {
+    return Fail(
+        "--prior_gps_origin must be three comma-separated numbers "
+        "(latitude, longitude, altitude), not '" +
+        prior_gps_origin + "'");
+  }
 
   if (!options.Check()) {
     // WriteSyntheticScene explains which option is wrong.
@@ -225,6 +370,14 @@ int main(int argc, char** argv) {
       options, database_path, &ground_truth, &shapes);
   if (!status.ok()) return Fail(status.message());
   ground_truth.WriteText(gt_path);
+  const std::string priors_path = (output_dir / "priors.txt").string();
+  if (options.prior_position_noise_m >= 0) {
+    if (!WritePriors(options, shapes, ground_truth, priors_path)) {
+      return Fail("cannot write " + priors_path);
+    }
+  } else {
+    std::filesystem::remove(priors_path, error);  // stale, of an earlier run
+  }
 
   // Count what a mapper will see, through the same reader it uses.
   colmap::Reconstruction read_back;
@@ -240,6 +393,14 @@ int main(int argc, char** argv) {
             << " verified pairs (" << options.layout << ", "
             << options.verification << " verification) to " << database_path
             << "; ground truth in " << gt_path << std::endl;
+  if (options.prior_position_noise_m >= 0) {
+    std::cout << "Simulated position priors (noise "
+              << options.prior_position_noise_m << " m per axis, "
+              << shapes.prior_outlier_image_ids.size() << " outliers, "
+              << shapes.prior_missing_image_ids.size() << " missing, stored "
+              << (options.prior_as_gps ? "as GPS" : "in metres")
+              << ") listed in " << priors_path << std::endl;
+  }
   PrintShapes(shapes);
   return EXIT_SUCCESS;
 }

@@ -18,6 +18,7 @@
 
 #include "base/camera_models.h"
 #include "base/database.h"
+#include "base/gps.h"
 #include "base/pose.h"
 #include "estimators/two_view_geometry.h"
 #include "glomap/parallel_for.h"
@@ -49,6 +50,9 @@ enum RandomStream : uint32_t {
   kShapeStream,
   kPatchStream,
   kWrongRotationStream,
+  // Which images get outlier or no priors; each image's prior noise.
+  kPriorSelectionStream,
+  kPriorNoiseStream,
 };
 
 std::mt19937 MakeRng(int seed, RandomStream stream, uint64_t index = 0) {
@@ -164,6 +168,36 @@ std::string OptionsError(const SyntheticSceneOptions& options) {
   if (options.weak_bridge_max_matches < 0) {
     return "weak_bridge_max_matches must be >= 0";
   }
+  if (!std::isfinite(options.prior_position_noise_m)) {
+    return "prior_position_noise_m must be a number (< 0: no priors)";
+  }
+  if (options.prior_position_noise_m < 0 &&
+      (options.prior_outlier_ratio != 0 || options.prior_missing_ratio != 0 ||
+       options.prior_as_gps)) {
+    return "prior_outlier_ratio, prior_missing_ratio and prior_as_gps need "
+           "prior_position_noise_m >= 0";
+  }
+  if (!(options.prior_outlier_ratio >= 0 && options.prior_outlier_ratio <= 1)) {
+    return "prior_outlier_ratio must be in [0, 1]";
+  }
+  if (!(options.prior_missing_ratio >= 0 && options.prior_missing_ratio <= 1)) {
+    return "prior_missing_ratio must be in [0, 1]";
+  }
+  if (options.prior_outlier_ratio + options.prior_missing_ratio > 1) {
+    return "prior_outlier_ratio + prior_missing_ratio must be at most 1";
+  }
+  if (!(options.prior_outlier_min_m >= 0 &&
+        options.prior_outlier_min_m <= options.prior_outlier_max_m &&
+        std::isfinite(options.prior_outlier_max_m))) {
+    return "prior_outlier_min_m and prior_outlier_max_m must satisfy 0 <= "
+           "min <= max";
+  }
+  if (!(std::abs(options.prior_gps_origin.x()) < 90 &&
+        std::abs(options.prior_gps_origin.y()) <= 180 &&
+        std::isfinite(options.prior_gps_origin.z()))) {
+    return "prior_gps_origin must be a latitude in (-90, 90) deg, a "
+           "longitude in [-180, 180] deg and a finite altitude in m";
+  }
   // Each pure-rotation image also claims the image whose centre it takes.
   const int num_special_images =
       (options.weak_group_size > 0
@@ -219,9 +253,9 @@ struct Layout {
   std::function<ScenePoint(std::mt19937&)> sample_point;
 };
 
-// Object-centred: a bumpy sphere of radius 2 seen from distance 8 (so that
+// Object-centred: a bumpy sphere of radius 2 m seen from 8 m (so that
 // neighbouring views have triangulation angles of a few degrees to ~30), in
-// a room.
+// a room of radius 16 m, centred on the origin, z up.
 Layout MakeRingLayout(int num_images, std::mt19937& rng) {
   constexpr double kObjectRadius = 2.0;
   constexpr double kDistance = 8.0;
@@ -1164,6 +1198,87 @@ colmap::TwoViewGeometry::Options MatcherVerificationOptions() {
   return options;
 }
 
+// Simulated position priors: metric positions in the scene frame (NaN where
+// an image has none) and the values stored in the database.
+struct SimulatedPriors {
+  std::vector<Eigen::Vector3d> positions;
+  std::vector<Eigen::Vector3d> stored;
+  std::vector<uint32_t> outliers;  // image indices, sorted
+  std::vector<uint32_t> missing;
+};
+
+SimulatedPriors MakePriors(const SyntheticSceneOptions& options,
+                           const Layout& layout) {
+  const size_t num_images = layout.poses.size();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  SimulatedPriors priors;
+  // Which images have no prior and which an outlier: disjoint, from one
+  // permutation.
+  std::vector<uint32_t> order(num_images);
+  std::iota(order.begin(), order.end(), 0);
+  std::mt19937 selection_rng =
+      MakeRng(options.random_seed, kPriorSelectionStream);
+  std::shuffle(order.begin(), order.end(), selection_rng);
+  const size_t num_missing = std::min(
+      num_images, static_cast<size_t>(
+                      std::round(options.prior_missing_ratio * num_images)));
+  const size_t num_outliers = std::min(
+      num_images - num_missing, static_cast<size_t>(std::round(
+                                    options.prior_outlier_ratio * num_images)));
+  priors.missing.assign(order.begin(), order.begin() + num_missing);
+  priors.outliers.assign(order.begin() + num_missing,
+                         order.begin() + num_missing + num_outliers);
+  std::sort(priors.missing.begin(), priors.missing.end());
+  std::sort(priors.outliers.begin(), priors.outliers.end());
+  std::vector<char> is_missing(num_images, 0), is_outlier(num_images, 0);
+  for (const uint32_t i : priors.missing) is_missing[i] = 1;
+  for (const uint32_t i : priors.outliers) is_outlier[i] = 1;
+
+  // Every image draws its noise and its displacement from its own stream,
+  // whatever it is used for, so that the ratios and the noise level do not
+  // change the draws of the other images.
+  priors.positions.resize(num_images);
+  for (size_t i = 0; i < num_images; ++i) {
+    std::mt19937 rng = MakeRng(options.random_seed, kPriorNoiseStream, i);
+    std::normal_distribution<double> normal(0, 1);
+    Eigen::Vector3d noise;
+    for (int k = 0; k < 3; ++k) noise(k) = normal(rng);
+    Eigen::Vector3d direction;
+    for (int k = 0; k < 3; ++k) direction(k) = normal(rng);
+    const double length =
+        Uniform(rng, options.prior_outlier_min_m, options.prior_outlier_max_m);
+    const Eigen::Vector3d& center = layout.poses[i].center;
+    if (is_missing[i]) {
+      priors.positions[i] = Eigen::Vector3d::Constant(nan);
+    } else if (is_outlier[i]) {
+      const double norm = direction.norm();
+      priors.positions[i] =
+          center + length * (norm > 1e-12 ? Eigen::Vector3d(direction / norm)
+                                          : Eigen::Vector3d::UnitX());
+    } else {
+      priors.positions[i] = center + options.prior_position_noise_m * noise;
+    }
+  }
+
+  priors.stored = priors.positions;
+  if (options.prior_as_gps) {
+    // The scene frame is ENU around the origin (x east, y north, z up).
+    std::vector<Eigen::Vector3d> enu;
+    for (size_t i = 0; i < num_images; ++i) {
+      if (!is_missing[i]) enu.push_back(priors.positions[i]);
+    }
+    const colmap::GPSTransform gps(colmap::GPSTransform::WGS84);
+    const std::vector<Eigen::Vector3d> lla = gps.ENUToEll(
+        enu, options.prior_gps_origin.x(), options.prior_gps_origin.y(),
+        options.prior_gps_origin.z());
+    size_t k = 0;
+    for (size_t i = 0; i < num_images; ++i) {
+      if (!is_missing[i]) priors.stored[i] = lla[k++];
+    }
+  }
+  return priors;
+}
+
 std::string ImageName(size_t image_idx) {
   char name[32];
   std::snprintf(name, sizeof(name), "image%04zu.png", image_idx + 1);
@@ -1383,6 +1498,9 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
     }
   });
 
+  SimulatedPriors priors;
+  if (options.prior_position_noise_m >= 0) priors = MakePriors(options, layout);
+
   // The database, written as COLMAP's extractor and matcher would.
   {
     colmap::Database database(database_path);
@@ -1395,6 +1513,8 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
       image.SetImageId(static_cast<colmap::image_t>(i + 1));
       image.SetName(ImageName(i));
       image.SetCameraId(database_cameras[camera_of_image[i]].CameraId());
+      // NaN (no prior) is stored as NULL.
+      if (!priors.stored.empty()) image.SetTvecPrior(priors.stored[i]);
       database.WriteImage(image, /*use_image_id=*/true);
       colmap::FeatureKeypoints keypoints;
       keypoints.reserve(images[i].keypoints.size());
@@ -1475,6 +1595,13 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
           shapes->weak_bridge_half_image_ids.push_back(id(k));
         }
       }
+    }
+    shapes->prior_positions = priors.positions;
+    for (const uint32_t i : priors.outliers) {
+      shapes->prior_outlier_image_ids.push_back(id(i));
+    }
+    for (const uint32_t i : priors.missing) {
+      shapes->prior_missing_image_ids.push_back(id(i));
     }
   }
   return Status::Ok();

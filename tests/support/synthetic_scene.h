@@ -4,6 +4,7 @@
 // plus the true cameras, poses and points it was made from.
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
 #include <utility>
 #include <vector>
@@ -61,7 +62,7 @@ struct SyntheticSceneOptions {
   // the number of pairs grows linearly with the number of images.
   int max_pairs_per_image = 30;
 
-  // Scene layout:
+  // Scene layout, in metres, z up (see the position priors below):
   //  "ring":    object-centred; cameras on a ring around an object (a dome
   //             of rings above 60 images), looking at its centre;
   //  "forward": a camera driving along a curved street lined with facades;
@@ -140,6 +141,43 @@ struct SyntheticSceneOptions {
   // True raw matches the bridge pair keeps at most (picked at random).
   int weak_bridge_max_matches = 40;
 
+  // Simulated camera position priors (GPS, or positions known from another
+  // source), written to the images table's prior_tx, prior_ty, prior_tz as
+  // COLMAP 3.8 stores them. The scene unit is the metre in every layout
+  // (ring: an object of radius 2 m seen from 8 m in a room of radius 16 m;
+  // forward: a street with one image per metre; grid: a survey 40 m above
+  // the ground, 10 m between images), and the world frame of every layout is
+  // east-north-up (x east, y north, z up: z is the vertical in all three),
+  // so the ground truth, the priors and SyntheticSceneShapes are all in
+  // metres in that frame. Each prior is drawn from its own random streams:
+  // enabling priors, or changing any prior option, changes nothing else in
+  // the database (keypoints, matches, geometries) nor the ground truth.
+
+  // Standard deviation of the Gaussian noise added to the true camera centre
+  // on each axis, metres; < 0: no priors (NULL, as without EXIF GPS).
+  double prior_position_noise_m = -1;
+  // Fraction of the images (rounded to a count) whose prior is displaced
+  // instead: true centre plus a displacement in a uniformly random direction
+  // whose length is uniform in [prior_outlier_min_m, prior_outlier_max_m]
+  // (no noise on top, so the error is exactly that length).
+  double prior_outlier_ratio = 0;
+  double prior_outlier_min_m = 20;
+  double prior_outlier_max_m = 100;
+  // Fraction of the images (rounded to a count; disjoint from the outliers)
+  // that get no prior (NULL), as images without GPS in a mixed collection.
+  double prior_missing_ratio = 0;
+  // If true, priors are stored as COLMAP's feature extractor stores EXIF
+  // GPS: prior_tx = latitude (deg), prior_ty = longitude (deg), prior_tz =
+  // altitude (m, above the WGS84 ellipsoid), the scene's ENU position around
+  // prior_gps_origin converted with colmap::GPSTransform(WGS84)::ENUToEll.
+  // Read back with GPSTransform(WGS84).EllToENU({origin, lla, ...}, lat0,
+  // lon0): in COLMAP 3.8 EllToENU measures from its first point, not from
+  // (lat0, lon0), so the origin must come first. If false, priors are the
+  // metric positions in the scene frame.
+  bool prior_as_gps = false;
+  // Latitude (deg), longitude (deg) and altitude (m) of the scene's origin.
+  Eigen::Vector3d prior_gps_origin = Eigen::Vector3d(47.3769, 8.5417, 400);
+
   // Threads for the "colmap" verification; -1 = all cores.
   int num_threads = -1;
 
@@ -172,6 +210,14 @@ struct SyntheticSceneShapes {
   // images of the half that holds the pair's first image.
   std::pair<colmap::image_t, colmap::image_t> weak_bridge_pair = {0, 0};
   std::vector<colmap::image_t> weak_bridge_half_image_ids;
+
+  // Simulated position priors (all empty when prior_position_noise_m < 0).
+  // The metric prior of each image (index: image id - 1) in the scene frame,
+  // metres, before any conversion to GPS; NaN for images without a prior.
+  std::vector<Eigen::Vector3d> prior_positions;
+  // Images whose prior is displaced (outliers), and images without a prior.
+  std::vector<colmap::image_t> prior_outlier_image_ids;
+  std::vector<colmap::image_t> prior_missing_image_ids;
 };
 
 // Writes a new COLMAP 3.8 database at `database_path` (fails if the file
@@ -180,7 +226,8 @@ struct SyntheticSceneShapes {
 // geometries. Fills the empty `ground_truth` with the true cameras, the
 // registered images with their true poses and the stored keypoints as
 // Points2D, and the 3D points seen by at least two images with their tracks.
-// `shapes` (optional) receives what the failure-shape options picked.
+// `shapes` (optional) receives what the failure-shape options picked and the
+// simulated position priors.
 Status WriteSyntheticScene(const SyntheticSceneOptions& options,
                            const std::string& database_path,
                            colmap::Reconstruction* ground_truth,
