@@ -169,9 +169,9 @@ bool GlobalMapperOptionsDialog::Apply() {
                                                  invalid_keys.front()));
     return false;
   }
-  if (!edited_.Check()) {
+  if (const glomap::Status check = edited_.Check(); !check.ok()) {
     QMessageBox::critical(this, windowTitle(),
-                          tr("Invalid GlobalMapper.* options (see the log)."));
+                          QString::fromStdString(check.message()));
     return false;
   }
   *options_ = edited_;

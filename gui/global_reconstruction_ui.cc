@@ -270,8 +270,8 @@ void GlobalReconstructionUi::Run() {
   // reader, through the run's status, as on the command line.
   glomap::GlobalMapperOptions options = options_;
   options.image_path = *window_->options_.image_path;
-  if (!options.Check()) {
-    ShowError("Invalid GlobalMapper.* options (see the log).");
+  if (const glomap::Status check = options.Check(); !check.ok()) {
+    ShowError(check.message());
     return;
   }
   // Asks before replacing existing models; stops the incremental mapper.

@@ -366,7 +366,7 @@ TEST(GlobalBundleAdjustment, RejectsBadInput) {
   EXPECT_FALSE(RunGlobalBundleAdjustment({}, nullptr).ok());
   GlobalBundleAdjustmentOptions options;
   options.num_rounds = 0;
-  EXPECT_FALSE(options.Check());
+  EXPECT_EQ(options.Check().message(), "num_rounds must be >= 1, is 0");
   colmap::Reconstruction reconstruction = MakeScene(SceneOptions(), nullptr);
   EXPECT_FALSE(RunGlobalBundleAdjustment(options, &reconstruction).ok());
 }

@@ -185,7 +185,7 @@ TEST(CameraClustering, OrderAndMinClusterSize) {
 
   CameraClusteringOptions bad;
   bad.min_cluster_size = 0;
-  EXPECT_FALSE(bad.Check());
+  EXPECT_EQ(bad.Check().message(), "min_cluster_size must be >= 1, is 0");
   EXPECT_TRUE(ClusterCameras(bad, builder.reconstruction()).empty());
 }
 

@@ -14,6 +14,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <thread>
 #include <vector>
@@ -180,6 +181,120 @@ TEST(GlobalMapperCommand, BadInputGivesOneLineError) {
     EXPECT_FALSE(fs::exists(c.output_path + "/0")) << c.name;
   }
   EXPECT_FALSE(fs::exists(dir + "/missing.db"));
+}
+
+// Runs `colmap global_mapper` on an empty database file (the options are
+// checked before the database is read) with `args`; returns the exit code
+// and what the user sees on stderr.
+int RunMapperOnEmptyProject(const std::string& dir, const std::string& output,
+                            const std::string& args, std::string* stderr_text) {
+  if (!fs::exists(dir + "/database.db")) {
+    std::ofstream(dir + "/database.db");
+    fs::create_directories(dir + "/images");
+  }
+  const std::string stderr_path = dir + "/stderr.txt";
+  const int code =
+      RunCommand(ColmapExecutable() + " global_mapper --database_path " + dir +
+                 "/database.db --image_path " + dir + "/images --output_path " +
+                 output + " " + args + " 2>" + stderr_path + " >/dev/null");
+  std::ifstream stderr_file(stderr_path);
+  stderr_text->assign(std::istreambuf_iterator<char>(stderr_file),
+                      std::istreambuf_iterator<char>());
+  return code;
+}
+
+// Issue 13: a value out of range is one error line that names the option as
+// the user typed it, its allowed range and the value; exit code 1.
+TEST(GlobalMapperCommand, BadOptionValueNamesKeyAndRange) {
+  const std::string dir = CreateTestDir("command_bad_option");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"--GlobalMapper.rp_max_epipolar_error_px -1",
+       "GlobalMapper.rp_max_epipolar_error_px must be > 0, is -1"},
+      {"--GlobalMapper.num_threads 0",
+       "GlobalMapper.num_threads must be -1 or >= 1, is 0"},
+      {"--GlobalMapper.pv_ransac_confidence 1",
+       "GlobalMapper.pv_ransac_confidence must be in (0, 1), is 1"},
+      {"--GlobalMapper.track_max_num_views_per_track 2",
+       "GlobalMapper.track_max_num_views_per_track must be >= "
+       "GlobalMapper.track_min_num_views_per_track (3), is 2"},
+      {"--GlobalMapper.min_num_matches -3",
+       "GlobalMapper.min_num_matches must be >= 0, is -3"},
+      // Options that were constants in the code before issue 13.
+      {"--GlobalMapper.ba_max_num_images_dense_schur -5",
+       "GlobalMapper.ba_max_num_images_dense_schur must be >= 0, is -5"},
+      {"--GlobalMapper.vgc_multi_view_min_model_ratio 1.5",
+       "GlobalMapper.vgc_multi_view_min_model_ratio must be in [0, 1], is "
+       "1.5"},
+      {"--GlobalMapper.min_residuals_per_ceres_thread 0",
+       "GlobalMapper.min_residuals_per_ceres_thread must be >= 1, is 0"},
+  };
+  for (const auto& [args, message] : cases) {
+    std::string log;
+    const int code = RunMapperOnEmptyProject(dir, dir + "/sparse", args, &log);
+    EXPECT_EQ(code, 1) << args << ": " << log;
+    EXPECT_EQ(log, "ERROR: " + message + "\n") << args;
+    EXPECT_FALSE(fs::exists(dir + "/sparse")) << args;
+  }
+}
+
+// Every option of `-h` (the GlobalMapper.* table) passes the check at its
+// default, and every number is refused under its own key when it is far out
+// of range: a field whose name differs from its key would be named wrongly.
+TEST(GlobalMapperCommand, EveryOptionIsCheckedUnderItsKey) {
+  std::string help;
+  ASSERT_EQ(RunCommand(ColmapExecutable() + " global_mapper -h", &help), 0)
+      << help;
+  std::vector<std::pair<std::string, std::string>> defaults;
+  const std::string prefix = "--GlobalMapper.";
+  for (size_t pos = help.find(prefix); pos != std::string::npos;
+       pos = help.find(prefix, pos + 1)) {
+    const size_t key_end = help.find(' ', pos);
+    const size_t value_begin = help.find("(=", key_end);
+    ASSERT_NE(value_begin, std::string::npos);
+    const size_t value_end = help.find(')', value_begin);
+    defaults.emplace_back(
+        help.substr(pos + prefix.size(), key_end - pos - prefix.size()),
+        help.substr(value_begin + 2, value_end - value_begin - 2));
+  }
+  ASSERT_GT(defaults.size(), 100u);  // The parse found the table.
+
+  // Past the check, the output path (below a file) is the first error.
+  const std::string dir = CreateTestDir("command_every_option");
+  std::ofstream(dir + "/a_file") << "x";
+  const std::string output = dir + "/a_file/out";
+  const std::string output_error = "ERROR: Cannot create the output folder";
+  std::string all_defaults;
+  for (const auto& [key, value] : defaults) {
+    all_defaults += " " + prefix + key + " " + value;
+  }
+  std::string log;
+  EXPECT_EQ(RunMapperOnEmptyProject(dir, output, all_defaults, &log), 1);
+  EXPECT_EQ(log.rfind(output_error, 0), 0u) << log;
+
+  // Switches are refused by the parser; the seed has no range.
+  const std::set<std::string> without_range = {"random_seed"};
+  size_t num_checked = 0;
+  for (const auto& [key, value] : defaults) {
+    bool refused = false;
+    for (const std::string bad : {"-1000000000", "1000000000"}) {
+      RunMapperOnEmptyProject(dir, output, prefix + key + " " + bad, &log);
+      if (log.rfind("ERROR: GlobalMapper." + key + " must be ", 0) == 0) {
+        refused = true;
+        break;
+      }
+      if (log.find("for option '" + prefix + key + "' is invalid") !=
+          std::string::npos) {
+        EXPECT_TRUE(value == "0" || value == "1") << key << ": " << log;
+        refused = true;
+        break;
+      }
+      // Not refused: the run got as far as the output path.
+      EXPECT_EQ(log.rfind(output_error, 0), 0u) << key << ": " << log;
+    }
+    EXPECT_EQ(refused, without_range.count(key) == 0) << key << ": " << log;
+    num_checked += refused;
+  }
+  EXPECT_EQ(num_checked, defaults.size() - without_range.size());
 }
 
 TEST(GlobalMapperCommand, ReadsStockProjectFile) {

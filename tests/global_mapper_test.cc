@@ -7,13 +7,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <tuple>
 
 #include "base/pose.h"
-#include "glomap/model_evaluation.h"
-#include "glomap/synthetic_scene.h"
+#include "colmap_ext/model_evaluation.h"
+#include "tests/support/model_record.h"
+#include "tests/support/synthetic_scene.h"
 #include "tests/support/test_paths.h"
 
 namespace glomap {
@@ -393,6 +395,30 @@ TEST_P(GlobalMapperRealData, MatchesReferenceMappers) {
             << evaluation.num_cameras_beyond << std::endl;
   EXPECT_EQ(evaluation.num_registered, static_cast<int>(c.num_images));
   EXPECT_EQ(evaluation.num_cameras_beyond, 0);
+
+  // Seed 0 gives the model recorded when the pipeline last changed on
+  // purpose, so a change meant to keep behaviour is checked on every
+  // dataset (tests/data/recorded_models/README.md says when to record anew).
+  if (seed == 0) {
+    const std::string record_path = std::string(GLOMAP_SOURCE_DIR) +
+                                    "/tests/data/recorded_models/" + c.name +
+                                    "_seed0.txt";
+    if (std::getenv("GLOMAP_RECORD_MODELS") != nullptr) {
+      ASSERT_TRUE(testing::WriteModelRecord(
+                      result.models[0],
+                      "global_mapper on " + c.name + ", seed 0, defaults",
+                      record_path)
+                      .ok());
+    } else {
+      const std::vector<std::string> differences =
+          testing::CompareWithModelRecord(result.models[0], record_path);
+      std::string report;
+      for (const std::string& line : differences) report += line + "\n";
+      EXPECT_TRUE(differences.empty())
+          << "The model differs from " << record_path << ":\n"
+          << report;
+    }
+  }
   EXPECT_GE(evaluation.pose_aucs[1], c.min_auc3);
   if (c.absolute_max_pos_err > 0) {
     EXPECT_LE(evaluation.position_error_mean, c.absolute_max_pos_err);

@@ -308,7 +308,20 @@ TEST(Retriangulation, InterruptAndBadInput) {
       Retriangulate(RetriangulationOptions(), scene.view_graph, &empty).ok());
   RetriangulationOptions bad;
   bad.min_angle_deg = -1;
-  EXPECT_FALSE(bad.Check());
+  EXPECT_EQ(bad.Check().message(), "min_angle_deg must be >= 0, is -1");
+  EXPECT_EQ(bad.Check("GlobalMapper.tri_").message(),
+            "GlobalMapper.tri_min_angle_deg must be >= 0, is -1");
+  const Status refused =
+      Retriangulate(bad, scene.view_graph, &reconstruction, Interrupt());
+  EXPECT_EQ(refused.message(),
+            "Invalid retriangulation options: min_angle_deg must be >= 0, is "
+            "-1");
+  // The final bundle adjustment's options, under their own prefix.
+  RetriangulationOptions bad_ba;
+  bad_ba.bundle_adjustment.loss_scale_px = 0;
+  EXPECT_EQ(bad_ba.Check("GlobalMapper.tri_").message(),
+            "GlobalMapper.tri_bundle_adjustment.loss_scale_px must be > 0, is "
+            "0");
 }
 
 TEST(Retriangulation, Deterministic) {

@@ -348,7 +348,8 @@ TEST(RotationAveraging, ErrorsAreReportedAsStatus) {
     Scene scene = MakeScene(5, 6, 0.0, 0.0, 9);
     RotationAveragingOptions options;
     options.irls_loss_parameter_sigma_deg = 0;
-    EXPECT_FALSE(options.Check());
+    EXPECT_EQ(options.Check().message(),
+              "irls_loss_parameter_sigma_deg must be > 0, is 0");
     EXPECT_FALSE(
         AverageRotations(options, &scene.view_graph, &scene.reconstruction)
             .ok());

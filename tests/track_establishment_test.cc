@@ -199,7 +199,11 @@ TEST(TrackEstablishment, PerImageQuotaTakesLongestTracksFirst) {
   EXPECT_EQ(Track(quota, 3).back(), (Obs{5, n + 1}));
 
   options.min_num_tracks_per_view = 0;
-  EXPECT_FALSE(options.Check());
+  EXPECT_EQ(options.Check().message(),
+            "min_num_tracks_per_view must be -1 or >= 1, is 0");
+  EXPECT_EQ(EstablishTracks(options, scene.view_graph, scene.reconstruction)
+                .NumTracks(),
+            0);
 }
 
 }  // namespace

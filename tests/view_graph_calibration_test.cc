@@ -486,7 +486,17 @@ TEST(ViewGraphCalibration, SmallReconstructionNeedsMatches) {
   EXPECT_NEAR(reconstruction.Camera(1).MeanFocalLength(), 1000, 10);
   ViewGraphCalibrationOptions bad;
   bad.multi_view_num_images = -1;
-  EXPECT_FALSE(bad.Check());
+  EXPECT_EQ(bad.Check().message(), "multi_view_num_images must be >= 0, is -1");
+  bad = ViewGraphCalibrationOptions();
+  bad.max_focal_ratio = 0.05;
+  EXPECT_EQ(bad.Check("GlobalMapper.vgc_").message(),
+            "GlobalMapper.vgc_max_focal_ratio must be > "
+            "GlobalMapper.vgc_min_focal_ratio (0.1), is 0.05");
+  bad = ViewGraphCalibrationOptions();
+  bad.multi_view_min_model_ratio = 1.5;
+  EXPECT_EQ(bad.Check().message(),
+            "multi_view_min_model_ratio must be in [0, 1], is 1.5");
+  EXPECT_FALSE(CalibrateViewGraph(bad, &reconstruction, &view_graph).ok());
 }
 
 }  // namespace

@@ -466,8 +466,8 @@ int RunGlobalMapperOrThrow(int argc, char** argv, SignalWatcher& signals,
     mapper_options.database.image_names = ReadTextFileLines(image_list_path);
   }
   mapper_options.image_path = *options.image_path;
-  if (!mapper_options.Check()) {
-    return EXIT_FAILURE;  // Check() said which option is wrong.
+  if (const glomap::Status check = mapper_options.Check(); !check.ok()) {
+    return Fail(check.message());
   }
   {
     const std::string error = CheckOutputPath(output_path);

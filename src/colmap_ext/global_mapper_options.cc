@@ -44,6 +44,9 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("random_seed", &o->random_seed,
         "Seed of every random choice: same input and seed, same model");
   b.Add("num_threads", &o->num_threads, "Threads (-1: all cores)");
+  b.Add("min_residuals_per_ceres_thread", &o->min_residuals_per_ceres_thread,
+        "A Ceres solve gets one more thread (up to num_threads) per this "
+        "many residual blocks");
   b.Add("min_model_size", &o->min_model_size,
         "Camera clusters with fewer images are not written (at least 2: "
         "a two-image project needs 2)");
@@ -68,8 +71,15 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("vgc_max_two_view_error", &vgc.max_two_view_error,
         "Pairs whose focal residual exceeds this are rejected");
   b.Add("vgc_loss_scale", &vgc.loss_scale, "Cauchy loss scale");
+  b.Add("vgc_coarse_loss_scale", &vgc.coarse_loss_scale,
+        "Cauchy loss scale of the first solve (at least vgc_loss_scale)");
   b.Add("vgc_max_num_iterations", &vgc.max_num_iterations,
         "Maximum solver iterations");
+  b.Add("vgc_function_tolerance", &vgc.function_tolerance,
+        "Solver function tolerance");
+  b.Add("vgc_min_num_free_cameras_sparse", &vgc.min_num_free_cameras_sparse,
+        "From this many cameras without a focal prior on, solve with a sparse "
+        "Cholesky; below, with dense QR");
   b.Add("vgc_multi_view_num_images", &vgc.multi_view_num_images,
         "Images of the small incremental reconstruction that calibrates "
         "focal lengths the fundamental matrices miss (0: off)");
@@ -77,6 +87,34 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         &vgc.multi_view_min_rotation_bias_deg,
         "Use its focal lengths only where they change the relative "
         "rotations by at least this much in the median [deg]");
+  b.Add("vgc_multi_view_min_num_matches", &vgc.multi_view_min_num_matches,
+        "Pairs with fewer matches are not used by the small reconstruction");
+  b.Add("vgc_multi_view_min_num_images_per_camera",
+        &vgc.multi_view_min_num_images_per_camera,
+        "A camera's focal length is taken from the small reconstruction only "
+        "if this many of its images are in it");
+  b.Add("vgc_multi_view_max_num_keypoints_per_image",
+        &vgc.multi_view_max_num_keypoints_per_image,
+        "Keypoints per image the small reconstruction uses at most (the most "
+        "matched ones)");
+  b.Add("vgc_multi_view_max_num_init_attempts",
+        &vgc.multi_view_max_num_init_attempts,
+        "Initial pairs tried per level of the small reconstruction");
+  b.Add("vgc_multi_view_num_init_relaxations",
+        &vgc.multi_view_num_init_relaxations,
+        "Levels of the initial-pair search (each later one halves the "
+        "inliers and triangulation angle required)");
+  b.Add("vgc_multi_view_min_model_ratio", &vgc.multi_view_min_model_ratio,
+        "Initial pairs are tried until a small reconstruction holds this "
+        "fraction of the selected images");
+  b.Add("vgc_multi_view_num_global_refinements",
+        &vgc.multi_view_num_global_refinements,
+        "Bundle adjustment and filtering passes of each global refinement of "
+        "the small reconstruction");
+  b.Add("vgc_multi_view_max_epipolar_error_px",
+        &vgc.multi_view_max_epipolar_error_px,
+        "RANSAC threshold of the relative rotations the small "
+        "reconstruction is compared with [px]");
 
   b.Group("Relative poses");
   auto& rp = o->relative_pose;
@@ -108,6 +146,14 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Maximum L1 iterations");
   b.Add("ra_l1_step_convergence_threshold_rad",
         &ra.l1_step_convergence_threshold_rad, "L1 convergence [rad]");
+  b.Add("ra_l1_initial_num_admm_iterations", &ra.l1_initial_num_admm_iterations,
+        "ADMM iterations of the first L1 solve (doubling in each later one)");
+  b.Add("ra_l1_max_num_admm_iterations", &ra.l1_max_num_admm_iterations,
+        "ADMM iterations of an L1 solve at most");
+  b.Add("ra_admm_absolute_tolerance_rad", &ra.admm_absolute_tolerance_rad,
+        "ADMM absolute stopping tolerance per residual coordinate [rad]");
+  b.Add("ra_admm_relative_tolerance", &ra.admm_relative_tolerance,
+        "ADMM relative stopping tolerance");
   b.Add("ra_max_num_irls_iterations", &ra.max_num_irls_iterations,
         "Maximum IRLS iterations");
   b.Add("ra_irls_step_convergence_threshold_rad",
@@ -147,12 +193,19 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Optimize camera positions");
   b.Add("gp_optimize_points", &gp.optimize_points, "Optimize points");
   b.Add("gp_optimize_scales", &gp.optimize_scales, "Optimize ray scales");
+  b.Add("gp_min_scale", &gp.min_scale,
+        "Lower bound of every ray scale (keeps points in front of their "
+        "cameras) [1 / scene units]");
   b.Add("gp_init_box_size", &gp.init_box_size,
         "Size of the random initialisation box");
   b.Add("gp_uncalibrated_weight", &gp.uncalibrated_weight,
         "Weight of cameras without a focal prior");
   b.Add("gp_max_angular_error_deg", &gp.max_angular_error_deg,
         "Observations with a larger angular error are removed [deg]");
+  b.Add("gp_uncalibrated_angular_error_factor",
+        &gp.uncalibrated_angular_error_factor,
+        "For cameras without a focal prior, the angular-error limit is this "
+        "multiple of gp_max_angular_error_deg");
   b.Add("gp_min_tri_angle_deg", &gp.min_tri_angle_deg,
         "Points with a smaller triangulation angle are removed [deg]");
   b.Add("gp_min_inlier_observation_ratio", &gp.min_inlier_observation_ratio,
@@ -195,6 +248,9 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Minimum RANSAC trials");
   b.Add("pv_ransac_max_num_trials", &pv.ransac_max_num_trials,
         "Maximum RANSAC trials");
+  b.Add("pv_max_num_refinements", &pv.max_num_refinements,
+        "The RANSAC pose is refined on its inliers while its score improves, "
+        "at most this often");
 
   b.Group("Bundle adjustment");
   auto& ba = o->bundle_adjustment;
@@ -204,6 +260,14 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Maximum iterations per solve");
   b.Add("ba_function_tolerance", &ba.function_tolerance,
         "Solver function tolerance");
+  b.Add("ba_function_tolerance_num_images", &ba.function_tolerance_num_images,
+        "Above this many images, the function tolerance is scaled by (this / "
+        "images)^2");
+  b.Add("ba_max_num_images_dense_schur", &ba.max_num_images_dense_schur,
+        "Up to this many images, solve with a dense Schur complement");
+  b.Add("ba_max_num_images_sparse_schur", &ba.max_num_images_sparse_schur,
+        "Up to this many images (and above the dense limit), solve with a "
+        "sparse Schur complement; above, with an iterative solver");
   b.Add("ba_refine_focal_length", &ba.refine_focal_length,
         "Refine focal lengths");
   b.Add("ba_refine_principal_point", &ba.refine_principal_point,
@@ -215,8 +279,12 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("ba_refine_extra_params", &ba.refine_extra_params,
         "Refine distortion parameters");
   b.Add("ba_max_normalized_reproj_error", &ba.max_normalized_reproj_error,
-        "Reprojection-error filter, normalized image units (x3, x2, x1 over "
-        "rounds)");
+        "Reprojection-error filter, normalized image units (looser on the "
+        "first filtering levels, by a multiplier that drops to 1)");
+  b.Add("ba_initial_reproj_error_multiplier",
+        &ba.initial_reproj_error_multiplier,
+        "Multiplier of the reprojection-error filter on its first level; 1 "
+        "less on each later one, down to 1");
   b.Add("ba_min_tri_angle_deg", &ba.min_tri_angle_deg,
         "Points with a smaller triangulation angle are removed [deg]");
   b.Add("ba_min_changed_tracks_ratio", &ba.min_changed_tracks_ratio,
@@ -247,6 +315,8 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Stop refining once fewer observations change");
   b.Add("tri_max_num_structure_iterations", &tri.max_num_structure_iterations,
         "Iterations of each structure-only adjustment");
+  b.Add("tri_structure_gradient_tolerance", &tri.structure_gradient_tolerance,
+        "Solver gradient tolerance of the structure-only adjustment");
   b.Add("tri_filter_max_reproj_error_px", &tri.filter_max_reproj_error_px,
         "Reprojection-error filter [px]");
   b.Add("tri_filter_min_tri_angle_deg", &tri.filter_min_tri_angle_deg,

@@ -14,6 +14,7 @@
 #include "base/cost_functions.h"
 #include "glomap/ceres_interrupt.h"
 #include "glomap/ceres_threads.h"
+#include "glomap/options_check.h"
 #include "glomap/track_filters.h"
 #include "optim/bundle_adjustment.h"
 #include "util/logging.h"
@@ -220,25 +221,18 @@ void FromPoseBlock(const PoseBlock& pose, colmap::Image* image) {
   image->SetTvec(Eigen::Vector3d(pose[4], pose[5], pose[6]));
 }
 
-// The Schur complement of a global bundle adjustment is small and dense: one
-// block per image plus the shared intrinsics. Up to a few hundred images a
-// dense factorization of it is faster than COLMAP 3.8's choice (sparse above
-// 50 images): the sparse block matrix pays a hash lookup and a lock per
-// cell, and every point's chunk locks the shared intrinsics block (measured
-// on KITTI_sequence_1, 51 images: a fifth of the solve time in GetCell and
-// mutexes). Up to thousands of images the reduced camera system stays
-// sparse enough for CHOLMOD; the iterative solver COLMAP uses above 1000
-// images stopped after a few steps far from the optimum on a 2000-image
-// survey.
-void ChooseLinearSolver(size_t num_images,
+// The linear solver for the number of images (see max_num_images_dense_schur
+// and max_num_images_sparse_schur).
+void ChooseLinearSolver(const GlobalBundleAdjustmentOptions& options,
+                        size_t num_images,
                         ceres::Solver::Options* solver_options) {
-  constexpr size_t kMaxNumImagesDenseSchur = 150;
-  constexpr size_t kMaxNumImagesSparseSchur = 5000;
   const bool has_sparse =
       solver_options->sparse_linear_algebra_library_type != ceres::NO_SPARSE;
-  if (num_images <= kMaxNumImagesDenseSchur) {
+  if (num_images <= static_cast<size_t>(options.max_num_images_dense_schur)) {
     solver_options->linear_solver_type = ceres::DENSE_SCHUR;
-  } else if (num_images <= kMaxNumImagesSparseSchur && has_sparse) {
+  } else if (num_images <=
+                 static_cast<size_t>(options.max_num_images_sparse_schur) &&
+             has_sparse) {
     solver_options->linear_solver_type = ceres::SPARSE_SCHUR;
   } else {
     solver_options->linear_solver_type = ceres::ITERATIVE_SCHUR;
@@ -248,11 +242,12 @@ void ChooseLinearSolver(size_t num_images,
 
 // GlobalBundleAdjustmentOptions::function_tolerance, scaled for the number
 // of images.
-double ScaledFunctionTolerance(double function_tolerance, size_t num_images) {
-  constexpr double kReferenceNumImages = 50;
+double ScaledFunctionTolerance(const GlobalBundleAdjustmentOptions& options,
+                               size_t num_images) {
   const double ratio =
-      std::min(1.0, kReferenceNumImages / static_cast<double>(num_images));
-  return function_tolerance * ratio * ratio;
+      std::min(1.0, static_cast<double>(options.function_tolerance_num_images) /
+                        static_cast<double>(num_images));
+  return options.function_tolerance * ratio * ratio;
 }
 
 // One Ceres problem for both stages. COLMAP 3.8's BundleAdjustmentConfig can
@@ -262,7 +257,8 @@ double ScaledFunctionTolerance(double function_tolerance, size_t num_images) {
 // of Ceres' quaternion and Euclidean manifolds. The loss and the
 // parameterization of intrinsics follow colmap::BundleAdjuster; the linear
 // solver does not (see ChooseLinearSolver).
-Status Solve(const colmap::BundleAdjustmentOptions& ba_options,
+Status Solve(const GlobalBundleAdjustmentOptions& options,
+             const colmap::BundleAdjustmentOptions& ba_options,
              const std::vector<colmap::image_t>& image_ids, const Gauge& gauge,
              bool fix_rotations, colmap::Reconstruction* reconstruction,
              int* num_iterations) {
@@ -362,11 +358,12 @@ Status Solve(const colmap::BundleAdjustmentOptions& ba_options,
   }
 
   ceres::Solver::Options solver_options = ba_options.solver_options;
-  ChooseLinearSolver(image_ids.size(), &solver_options);
-  solver_options.function_tolerance = ScaledFunctionTolerance(
-      ba_options.solver_options.function_tolerance, image_ids.size());
+  ChooseLinearSolver(options, image_ids.size(), &solver_options);
+  solver_options.function_tolerance =
+      ScaledFunctionTolerance(options, image_ids.size());
   solver_options.num_threads = CeresNumThreads(
-      ba_options.solver_options.num_threads, problem.NumResidualBlocks());
+      ba_options.solver_options.num_threads, problem.NumResidualBlocks(),
+      options.min_residuals_per_ceres_thread);
   std::string solver_error;
   if (!solver_options.IsValid(&solver_error)) {
     return Status::Error("Invalid Ceres options: " + solver_error);
@@ -412,21 +409,37 @@ size_t FilterAndCountChangedTracks(double max_normalized_reproj_error,
 
 }  // namespace
 
-bool GlobalBundleAdjustmentOptions::Check() const {
-  return num_rounds >= 1 && loss_scale_px > 0 && max_num_iterations >= 1 &&
-         function_tolerance >= 0 && max_normalized_reproj_error > 0 &&
-         min_tri_angle_deg >= 0 && min_changed_tracks_ratio >= 0 &&
-         min_changed_tracks_ratio <= 1 &&
-         min_view_spread_deg_for_principal_point >= 0 &&
-         (num_threads == -1 || num_threads >= 1);
+Status GlobalBundleAdjustmentOptions::Check(const std::string& prefix) const {
+  OptionChecker check(prefix);
+  check.AtLeast("num_rounds", num_rounds, 1);
+  check.GreaterThan("loss_scale_px", loss_scale_px, 0);
+  check.AtLeast("max_num_iterations", max_num_iterations, 1);
+  check.AtLeast("function_tolerance", function_tolerance, 0);
+  check.AtLeast("function_tolerance_num_images", function_tolerance_num_images,
+                1);
+  check.AtLeast("max_num_images_dense_schur", max_num_images_dense_schur, 0);
+  check.AtLeast("max_num_images_sparse_schur", max_num_images_sparse_schur, 0);
+  check.AtLeast("min_view_spread_deg_for_principal_point",
+                min_view_spread_deg_for_principal_point, 0);
+  check.GreaterThan("max_normalized_reproj_error", max_normalized_reproj_error,
+                    0);
+  check.AtLeast("initial_reproj_error_multiplier",
+                initial_reproj_error_multiplier, 1);
+  check.AtLeast("min_tri_angle_deg", min_tri_angle_deg, 0);
+  check.InRange("min_changed_tracks_ratio", min_changed_tracks_ratio, 0, 1);
+  check.MinusOneOrAtLeast("num_threads", num_threads, 1);
+  check.AtLeast("min_residuals_per_ceres_thread",
+                min_residuals_per_ceres_thread, 1);
+  return check.status();
 }
 
 Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
                                  colmap::Reconstruction* reconstruction,
                                  const Interrupt& interrupt,
                                  const std::function<void()>& on_round_done) {
-  if (!options.Check()) {
-    return Status::Error("Invalid global bundle adjustment options.");
+  if (const Status check = options.Check(); !check.ok()) {
+    return Status::Error("Invalid global bundle adjustment options: " +
+                         check.message());
   }
   if (reconstruction == nullptr) {
     return Status::Error("No reconstruction for bundle adjustment.");
@@ -435,10 +448,11 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
   const colmap::BundleAdjustmentOptions ba_options =
       ColmapOptions(options, &callback);
 
-  // Threshold multipliers of successive filtering levels (glomap.md §2.7):
-  // loose while poses are still coarse, the nominal value from level 2 on.
-  const auto threshold_multiplier = [](int level) {
-    return std::max(3 - level, 1);
+  // Threshold multipliers of successive filtering levels (see
+  // max_normalized_reproj_error): loose while poses are still coarse, then
+  // the nominal value.
+  const auto threshold_multiplier = [&options](int level) {
+    return std::max(options.initial_reproj_error_multiplier - level, 1);
   };
 
   bool first_round = true;
@@ -465,7 +479,7 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
     int num_fixed_rotation_iterations = 0;
     if (!options.skip_fixed_rotation_stage && first_round) {
       const Status status =
-          Solve(ba_options, image_ids, gauge, /*fix_rotations=*/true,
+          Solve(options, ba_options, image_ids, gauge, /*fix_rotations=*/true,
                 reconstruction, &num_fixed_rotation_iterations);
       if (!status.ok()) return status;
       if (interrupt.IsStopped()) return Status::Cancelled();
@@ -473,7 +487,7 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
     int num_joint_iterations = 0;
     if (!options.skip_joint_stage) {
       const Status status =
-          Solve(ba_options, image_ids, gauge, /*fix_rotations=*/false,
+          Solve(options, ba_options, image_ids, gauge, /*fix_rotations=*/false,
                 reconstruction, &num_joint_iterations);
       if (!status.ok()) return status;
       if (interrupt.IsStopped()) return Status::Cancelled();

@@ -9,8 +9,10 @@
 #pragma once
 
 #include <functional>
+#include <string>
 
 #include "base/reconstruction.h"
+#include "glomap/ceres_threads.h"
 #include "glomap/status.h"
 
 namespace glomap {
@@ -37,17 +39,33 @@ struct GlobalBundleAdjustmentOptions {
   // letting later solves continue is faster than running one to the end.
   int max_num_iterations = 40;
 
-  // A solve of up to 50 images stops once the relative cost decrease of an
-  // iteration falls below this value (Ceres' function_tolerance; the
-  // reference uses 1e-5). For N > 50 images the tolerance is multiplied by
-  // (50 / N)^2: a large block deforms smoothly (a bend over the whole
-  // survey) at almost no reprojection cost, so that mode converges with tiny
-  // relative decreases that a fixed tolerance mistakes for convergence. On a
-  // 500-image synthetic survey, 1e-5 stopped after 8 iterations at a median
-  // pairwise rotation error of 1.06 deg (AUC@3 64%); 1e-7 reached 0.13 deg
-  // (AUC@3 95%). On the shared datasets (<= 51 images) a smaller tolerance
-  // only adds iterations.
+  // A solve of up to M = function_tolerance_num_images images stops once
+  // the relative cost decrease of an iteration falls below this value
+  // (Ceres' function_tolerance; the reference uses 1e-5). For N > M images
+  // the tolerance is multiplied by (M / N)^2: a large block deforms smoothly
+  // (a bend over the whole survey) at almost no reprojection cost, so that
+  // mode converges with tiny relative decreases that a fixed tolerance
+  // mistakes for convergence. On a 500-image synthetic survey, 1e-5 stopped
+  // after 8 iterations at a median pairwise rotation error of 1.06 deg
+  // (AUC@3 64%); 1e-7 reached 0.13 deg (AUC@3 95%). On the shared datasets
+  // (<= 51 images) a smaller tolerance only adds iterations.
   double function_tolerance = 1e-5;
+  int function_tolerance_num_images = 50;
+
+  // Linear solver by the number of images: up to the first, a dense Schur
+  // complement; up to the second, a sparse one (CHOLMOD); above, iterative.
+  // The Schur complement of a global bundle adjustment is small and dense:
+  // one block per image plus the shared intrinsics. Up to a few hundred
+  // images a dense factorization of it is faster than COLMAP 3.8's choice
+  // (sparse above 50 images): the sparse block matrix pays a hash lookup and
+  // a lock per cell, and every point's chunk locks the shared intrinsics
+  // block (measured on KITTI_sequence_1, 51 images: a fifth of the solve
+  // time in GetCell and mutexes). Up to thousands of images the reduced
+  // camera system stays sparse enough for CHOLMOD; the iterative solver
+  // COLMAP uses above 1000 images stopped after a few steps far from the
+  // optimum on a 2000-image survey.
+  int max_num_images_dense_schur = 150;
+  int max_num_images_sparse_schur = 5000;
 
   // Which groups of intrinsic parameters are refined (all cameras).
   bool refine_focal_length = true;
@@ -71,10 +89,13 @@ struct GlobalBundleAdjustmentOptions {
   double min_view_spread_deg_for_principal_point = 10.0;
 
   // Observations whose reprojection error on the normalized image plane
-  // (pixels / focal length) exceeds this value times 3, 2, 1 in successive
-  // rounds are removed (glomap.md §2.7; 0.01 is about 10 px at f = 1000 px).
-  // Normalized units keep the threshold meaningful for any image size.
+  // (pixels / focal length) exceeds this value times K, K - 1, ..., 1 in
+  // successive filtering levels are removed, K =
+  // initial_reproj_error_multiplier (glomap.md §2.7: 3, 2, 1; 0.01 is about
+  // 10 px at f = 1000 px): loose while poses are still coarse. Normalized
+  // units keep the threshold meaningful for any image size.
   double max_normalized_reproj_error = 0.01;
+  int initial_reproj_error_multiplier = 3;
 
   // After the last round, points whose largest triangulation angle is below
   // this are deleted (their depth is poorly constrained).
@@ -90,8 +111,12 @@ struct GlobalBundleAdjustmentOptions {
 
   // Ceres threads; -1 uses all cores.
   int num_threads = -1;
+  // One more Ceres thread per this many residual blocks (see ceres_threads.h;
+  // set from GlobalMapper.min_residuals_per_ceres_thread).
+  int min_residuals_per_ceres_thread = kMinResidualBlocksPerCeresThread;
 
-  bool Check() const;
+  // The first violation, naming the field as `prefix` + its name.
+  Status Check(const std::string& prefix = "") const;
 };
 
 // Runs the BA rounds on the registered images and points of `reconstruction`

@@ -8,7 +8,9 @@
 #include <unordered_set>
 #include <utility>
 
+#include "glomap/options_check.h"
 #include "glomap/union_find.h"
+#include "util/logging.h"
 
 namespace glomap {
 namespace {
@@ -32,16 +34,24 @@ double Median(std::vector<double> values) {
 
 }  // namespace
 
-bool CameraClusteringOptions::Check() const {
-  return min_covisible_points >= 1 && min_edge_weight >= 0 &&
-         merge_weight_ratio > 0 && min_num_merge_edges >= 1 &&
-         max_merge_rounds >= 0 && min_cluster_size >= 1;
+Status CameraClusteringOptions::Check(const std::string& prefix) const {
+  OptionChecker check(prefix);
+  check.AtLeast("min_covisible_points", min_covisible_points, 1);
+  check.AtLeast("min_edge_weight", min_edge_weight, 0);
+  check.GreaterThan("merge_weight_ratio", merge_weight_ratio, 0);
+  check.AtLeast("min_num_merge_edges", min_num_merge_edges, 1);
+  check.AtLeast("max_merge_rounds", max_merge_rounds, 0);
+  check.AtLeast("min_cluster_size", min_cluster_size, 1);
+  return check.status();
 }
 
 std::vector<std::vector<colmap::image_t>> ClusterCameras(
     const CameraClusteringOptions& options,
     const colmap::Reconstruction& reconstruction) {
-  if (!options.Check()) return {};
+  if (const Status check = options.Check(); !check.ok()) {
+    LOG(ERROR) << "Invalid camera clustering options: " << check.message();
+    return {};
+  }
   std::vector<colmap::image_t> image_ids = reconstruction.RegImageIds();
   std::sort(image_ids.begin(), image_ids.end());
   std::unordered_map<colmap::image_t, size_t> image_idxs;

@@ -5,9 +5,11 @@
 // be written as its own model.
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include "base/reconstruction.h"
+#include "glomap/status.h"
 
 namespace glomap {
 
@@ -32,7 +34,8 @@ struct CameraClusteringOptions {
   // ignores its equivalent argument (glomap.md Appendix A.10); we honour it.
   int min_cluster_size = 2;
 
-  bool Check() const;
+  // The first violation, naming the field as `prefix` + its name.
+  Status Check(const std::string& prefix = "") const;
 };
 
 // Clusters the registered images of `reconstruction` by covisibility (number
@@ -42,7 +45,8 @@ struct CameraClusteringOptions {
 // edges of weight >= merge_weight_ratio * tau are merged, repeatedly.
 // Returns the clusters as sorted image id lists, largest first (ties: the
 // cluster with the smallest image id first). Registered images in no kept
-// cluster appear in no list. Invalid options give an empty result.
+// cluster appear in no list. Invalid options give an empty result (the error
+// is logged; the global mapper checks its options first).
 //
 // The paper connects pairs with "more than tau" points; we use ">= tau" so
 // that when at least half of the weights tie at the median (MAD = 0) those

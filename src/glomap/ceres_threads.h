@@ -20,13 +20,19 @@ namespace glomap {
 // - a 500-image survey (290k observations): two threads took positioning
 //   from 78.1 s to 69.7 s and BA from 45.4 s to 42.2 s, so larger problems
 //   keep their threads.
-constexpr size_t kMinResidualBlocksPerCeresThread = 150000;
+// The default of GlobalMapper.min_residuals_per_ceres_thread (a field of
+// every stage's options that runs Ceres, set from it by the global mapper).
+constexpr int kMinResidualBlocksPerCeresThread = 150000;
 
-// `num_threads` is the user's option (-1: all cores).
-inline int CeresNumThreads(int num_threads, size_t num_residual_blocks) {
+// `num_threads` is the user's option (-1: all cores); a solve gets one more
+// thread per `min_residual_blocks_per_thread` residual blocks (at least 1,
+// see the options' Check), up to it.
+inline int CeresNumThreads(int num_threads, size_t num_residual_blocks,
+                           int min_residual_blocks_per_thread) {
   const int max_threads = colmap::GetEffectiveNumThreads(num_threads);
   const size_t by_size =
-      1 + num_residual_blocks / kMinResidualBlocksPerCeresThread;
+      1 + num_residual_blocks /
+              static_cast<size_t>(std::max(1, min_residual_blocks_per_thread));
   return static_cast<int>(
       std::max<size_t>(1, std::min<size_t>(max_threads, by_size)));
 }

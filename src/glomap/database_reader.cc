@@ -19,28 +19,40 @@
 
 #include "base/camera_models.h"
 #include "estimators/two_view_geometry.h"
+#include "glomap/options_check.h"
 #include "util/logging.h"
 
 namespace glomap {
 namespace {
 
-// How long a read waits for another program's write lock on the database.
+// The constants below are not GlobalMapper.* options: they decide how the
+// file is read, never what the pipeline makes of its content.
+
+// How long a read waits for another program's write lock on the database
+// (the reader's patience with another program, not a property of the data;
+// a writer that holds its lock longer is reported as an error).
 constexpr int kBusyTimeoutMs = 30000;
 
-// How often a database that changes while it is read is read again.
+// How often a database that changes while it is read is read again (as
+// kBusyTimeoutMs: how long to wait for another program).
 constexpr int kMaxNumReadAttempts = 3;
 
-// COLMAP 3.8's Database::kMaxNumImages: pair_id = id1 * kMax + id2.
+// COLMAP 3.8's Database::kMaxNumImages: pair_id = id1 * kMax + id2 (the
+// file format).
 constexpr int64_t kPairIdFactor = 2147483647;
 
 // A camera whose principal point lies farther outside its image than this
 // fraction of the image size (per axis) is damaged: even a crop of a larger
 // sensor keeps it near the image, and values like 10 million px put every ray
-// almost at right angles to the optical axis.
+// almost at right angles to the optical axis. Part of the reader's definition
+// of damaged content (with non-finite parameters and focal lengths that are
+// not positive, see database_reader.h), not a tuning threshold: no real
+// camera comes near it, and a looser value would only let damaged cameras
+// into the pipeline.
 constexpr double kMaxPrincipalPointOutsideRatio = 1.0;
 
 // Warnings that name one image each stop after this many; one more line
-// counts the rest.
+// counts the rest (log policy).
 constexpr size_t kMaxNamedWarnings = 10;
 
 using colmap::TwoViewGeometry;
@@ -985,16 +997,18 @@ void Reader::MoveInto(colmap::Reconstruction* reconstruction) {
 
 }  // namespace
 
-bool DatabaseReaderOptions::Check() const { return min_num_matches >= 0; }
+Status DatabaseReaderOptions::Check(const std::string& prefix) const {
+  OptionChecker check(prefix);
+  check.AtLeast("min_num_matches", min_num_matches, 0);
+  return check.status();
+}
 
 Status ReadDatabase(const std::string& database_path,
                     const DatabaseReaderOptions& options,
                     colmap::Reconstruction* reconstruction,
                     ViewGraph* view_graph) {
-  if (!options.Check()) {
-    return Status::Error(
-        "Invalid database reader options: min_num_matches "
-        "must not be negative.");
+  if (const Status check = options.Check(); !check.ok()) {
+    return Status::Error("Invalid database reader options: " + check.message());
   }
   if (reconstruction->NumCameras() > 0 || reconstruction->NumImages() > 0 ||
       view_graph->NumPairs() > 0) {

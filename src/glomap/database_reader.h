@@ -27,7 +27,8 @@ struct DatabaseReaderOptions {
   // between two of them); names that are not in the database are ignored.
   std::vector<std::string> image_names;
 
-  bool Check() const;
+  // The first violation, naming the field as `prefix` + its name.
+  Status Check(const std::string& prefix = "") const;
 };
 
 // Reads the database at `database_path` into an empty `reconstruction` and

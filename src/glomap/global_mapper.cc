@@ -6,6 +6,7 @@
 #include <unordered_set>
 
 #include "base/pose.h"
+#include "glomap/options_check.h"
 #include "glomap/track_filters.h"
 #include "util/logging.h"
 #include "util/misc.h"
@@ -144,56 +145,66 @@ Status TooFewImagesForModel(size_t num_images, int min_model_size,
                        std::to_string(num_images) + " to reconstruct them.");
 }
 
-}  // namespace
-
-bool GlobalMapperOptions::Check() const {
-  // Name the group that is wrong, so the user knows which option to fix.
-  const std::pair<const char*, bool> checks[] = {
-      {"database", database.Check()},
-      {"view graph calibration (vgc_*)", view_graph_calibration.Check()},
-      {"relative pose (rp_*)", relative_pose.Check()},
-      {"rotation averaging (ra_*)", rotation_averaging.Check()},
-      {"tracks (track_*)", tracks.Check()},
-      {"global positioning (gp_*)", global_positioning.Check()},
-      {"pose verification (pv_*)", pose_verification.Check()},
-      {"bundle adjustment (ba_*)", bundle_adjustment.Check()},
-      {"retriangulation (tri_*)", retriangulation.Check()},
-      {"camera clustering (cc_*)", clustering.Check()},
-      {"min_model_size (at least 2)", min_model_size >= 2},
-      {"num_threads (-1 or positive)", num_threads == -1 || num_threads > 0},
-  };
-  for (const auto& [name, ok] : checks) {
-    if (!ok) {
-      LOG(ERROR) << "Invalid GlobalMapper option value in: " << name;
-      return false;
-    }
-  }
-  return true;
-}
-
-GlobalMapper::GlobalMapper(GlobalMapperOptions options)
-    : options_(std::move(options)) {
-  // One seed and one thread count for the whole pipeline.
-  options_.relative_pose.random_seed = options_.random_seed;
-  options_.global_positioning.random_seed = options_.random_seed + 1;
-  options_.relative_pose.num_threads = options_.num_threads;
-  options_.view_graph_calibration.num_threads = options_.num_threads;
-  options_.global_positioning.num_threads = options_.num_threads;
-  options_.bundle_adjustment.num_threads = options_.num_threads;
-  options_.pose_verification.num_threads = options_.num_threads;
-  options_.pose_verification.random_seed = options_.random_seed + 2;
+// The options as the stages get them: one seed, one thread count and one
+// Ceres thread policy for the whole pipeline (stage fields that are no
+// GlobalMapper.* option are set here).
+GlobalMapperOptions WithGeneralOptionsPropagated(GlobalMapperOptions options) {
+  options.relative_pose.random_seed = options.random_seed;
+  options.global_positioning.random_seed = options.random_seed + 1;
+  options.relative_pose.num_threads = options.num_threads;
+  options.view_graph_calibration.num_threads = options.num_threads;
+  options.global_positioning.num_threads = options.num_threads;
+  options.bundle_adjustment.num_threads = options.num_threads;
+  options.pose_verification.num_threads = options.num_threads;
+  options.pose_verification.random_seed = options.random_seed + 2;
+  options.view_graph_calibration.min_residuals_per_ceres_thread =
+      options.min_residuals_per_ceres_thread;
+  options.global_positioning.min_residuals_per_ceres_thread =
+      options.min_residuals_per_ceres_thread;
+  options.bundle_adjustment.min_residuals_per_ceres_thread =
+      options.min_residuals_per_ceres_thread;
   // The bundle adjustment after retriangulation is one joint round with the
   // solver settings of the rounds before it (one set of ba_* options), and
   // its own iteration cap.
   GlobalBundleAdjustmentOptions& final_ba =
-      options_.retriangulation.bundle_adjustment;
-  final_ba = options_.bundle_adjustment;
+      options.retriangulation.bundle_adjustment;
+  final_ba = options.bundle_adjustment;
   final_ba.num_rounds = 1;
   final_ba.skip_fixed_rotation_stage = true;
   final_ba.skip_joint_stage = false;
   final_ba.max_num_iterations =
-      options_.retriangulation.final_ba_max_num_iterations;
+      options.retriangulation.final_ba_max_num_iterations;
+  return options;
 }
+
+}  // namespace
+
+Status GlobalMapperOptions::Check() const {
+  // In the order of the option table (and of `-h`), the general options
+  // first. The stages are checked as the mapper runs them, with the general
+  // options set in their fields, so that those fields (which have no keys of
+  // their own) are judged under the general keys only.
+  OptionChecker check("GlobalMapper.");
+  check.Add(database.Check("GlobalMapper."));
+  check.AtLeast("min_model_size", min_model_size, 2);
+  check.MinusOneOrAtLeast("num_threads", num_threads, 1);
+  check.AtLeast("min_residuals_per_ceres_thread",
+                min_residuals_per_ceres_thread, 1);
+  const GlobalMapperOptions stages = WithGeneralOptionsPropagated(*this);
+  check.Add(stages.view_graph_calibration.Check("GlobalMapper.vgc_"));
+  check.Add(stages.relative_pose.Check("GlobalMapper.rp_"));
+  check.Add(stages.rotation_averaging.Check("GlobalMapper.ra_"));
+  check.Add(stages.tracks.Check("GlobalMapper.track_"));
+  check.Add(stages.global_positioning.Check("GlobalMapper.gp_"));
+  check.Add(stages.pose_verification.Check("GlobalMapper.pv_"));
+  check.Add(stages.bundle_adjustment.Check("GlobalMapper.ba_"));
+  check.Add(stages.retriangulation.Check("GlobalMapper.tri_"));
+  check.Add(stages.clustering.Check("GlobalMapper.cc_"));
+  return check.status();
+}
+
+GlobalMapper::GlobalMapper(GlobalMapperOptions options)
+    : options_(WithGeneralOptionsPropagated(std::move(options))) {}
 
 Status GlobalMapper::Run(const std::string& database_path,
                          colmap::Reconstruction* work,
@@ -201,6 +212,9 @@ Status GlobalMapper::Run(const std::string& database_path,
                          const GlobalMapperCallbacks& callbacks) {
   summary_ = GlobalMapperSummary();
   models->clear();
+  // The stages check their options too, but only this names them as the
+  // user set them (GlobalMapper.<key>).
+  if (const Status check = options_.Check(); !check.ok()) return check;
   colmap::Timer total_timer;
   total_timer.Start();
   const Interrupt& interrupt = callbacks.interrupt;

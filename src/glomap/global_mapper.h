@@ -11,6 +11,7 @@
 #include "base/reconstruction.h"
 #include "glomap/bundle_adjustment.h"
 #include "glomap/camera_clustering.h"
+#include "glomap/ceres_threads.h"
 #include "glomap/database_reader.h"
 #include "glomap/global_positioning.h"
 #include "glomap/pose_verification.h"
@@ -54,10 +55,18 @@ struct GlobalMapperOptions {
   int random_seed = 0;
   // Threads for the parallel stages (-1: all cores).
   int num_threads = -1;
+  // A Ceres solve gets one more thread (up to num_threads) per this many
+  // residual blocks: on small problems a second thread brings nothing (see
+  // ceres_threads.h).
+  int min_residuals_per_ceres_thread = kMinResidualBlocksPerCeresThread;
   // Folder of the images, for point colours; empty: no colours.
   std::string image_path;
 
-  bool Check() const;
+  // The first invalid option, named by its command-line key and with its
+  // allowed range, e.g. "GlobalMapper.rp_max_epipolar_error_px must be > 0,
+  // is -1" (every stage field that is an option is named as its key without
+  // the stage's prefix, see global_mapper_options.cc).
+  Status Check() const;
 };
 
 // Wall time and key counts of one stage, for logs and benchmarks.

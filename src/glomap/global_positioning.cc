@@ -14,15 +14,12 @@
 #include "base/image.h"
 #include "glomap/ceres_interrupt.h"
 #include "glomap/ceres_threads.h"
+#include "glomap/options_check.h"
 #include "glomap/track_filters.h"
 #include "util/timer.h"
 
 namespace glomap {
 namespace {
-
-// Lower bound of every scale d: keeps d > 0 (the point in front of the
-// camera along the observed ray) as in the reference.
-constexpr double kMinScale = 1e-5;
 
 // r = v - d (X - c) with the unit observed ray v in world coordinates (paper
 // Eq. 5). Parameter blocks: camera centre c, point X, scale d. Analytic
@@ -76,20 +73,34 @@ bool AllFinite(const std::vector<Eigen::Vector3d>& vectors) {
 
 }  // namespace
 
-bool GlobalPositioningOptions::Check() const {
-  return loss_scale > 0 && max_num_iterations >= 0 && function_tolerance >= 0 &&
-         init_box_size > 0 && uncalibrated_weight > 0 && num_threads != 0 &&
-         num_threads >= -1 && max_angular_error_deg > 0 &&
-         min_tri_angle_deg >= 0 && min_inlier_observation_ratio >= 0 &&
-         min_inlier_observation_ratio <= 1;
+Status GlobalPositioningOptions::Check(const std::string& prefix) const {
+  OptionChecker check(prefix);
+  check.GreaterThan("loss_scale", loss_scale, 0);
+  check.AtLeast("max_num_iterations", max_num_iterations, 0);
+  check.AtLeast("function_tolerance", function_tolerance, 0);
+  check.GreaterThan("init_box_size", init_box_size, 0);
+  check.GreaterThan("uncalibrated_weight", uncalibrated_weight, 0);
+  check.AtLeast("max_num_images_eigen_sparse", max_num_images_eigen_sparse, 0);
+  check.MinusOneOrAtLeast("num_threads", num_threads, 1);
+  check.AtLeast("min_residuals_per_ceres_thread",
+                min_residuals_per_ceres_thread, 1);
+  check.GreaterThan("min_scale", min_scale, 0);
+  check.GreaterThan("max_angular_error_deg", max_angular_error_deg, 0);
+  check.GreaterThan("uncalibrated_angular_error_factor",
+                    uncalibrated_angular_error_factor, 0);
+  check.AtLeast("min_tri_angle_deg", min_tri_angle_deg, 0);
+  check.InRange("min_inlier_observation_ratio", min_inlier_observation_ratio, 0,
+                1);
+  return check.status();
 }
 
 Status RunGlobalPositioning(const GlobalPositioningOptions& options,
                             const TrackStore& tracks,
                             colmap::Reconstruction* reconstruction,
                             const Interrupt& interrupt) {
-  if (!options.Check()) {
-    return Status::Error("Invalid global positioning options.");
+  if (const Status check = options.Check(); !check.ok()) {
+    return Status::Error("Invalid global positioning options: " +
+                         check.message());
   }
   colmap::Timer timer;
   timer.Start();
@@ -199,7 +210,7 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
     if (!options.optimize_scales || k == 0) {
       problem.SetParameterBlockConstant(&scales[k]);
     } else {
-      problem.SetParameterLowerBound(&scales[k], 0, kMinScale);
+      problem.SetParameterLowerBound(&scales[k], 0, options.min_scale);
     }
   }
   if (!options.optimize_points) {
@@ -242,7 +253,8 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
   solver_options.max_num_iterations = options.max_num_iterations;
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.num_threads =
-      CeresNumThreads(options.num_threads, problem.NumResidualBlocks());
+      CeresNumThreads(options.num_threads, problem.NumResidualBlocks(),
+                      options.min_residuals_per_ceres_thread);
   solver_options.logging_type = ceres::SILENT;
   InterruptCallback interrupt_callback(interrupt);
   solver_options.callbacks.push_back(&interrupt_callback);
@@ -287,7 +299,8 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
 
   const size_t num_angular_outliers = FilterObservationsByAngularError(
       reconstruction, options.max_angular_error_deg,
-      2 * options.max_angular_error_deg);
+      options.uncalibrated_angular_error_factor *
+          options.max_angular_error_deg);
   const size_t num_small_angle_points = FilterPointsByTriangulationAngle(
       reconstruction, options.min_tri_angle_deg);
   const double inlier_ratio =

@@ -3,7 +3,10 @@
 // rotations and the feature tracks, starting from a random initialization.
 #pragma once
 
+#include <string>
+
 #include "base/reconstruction.h"
+#include "glomap/ceres_threads.h"
 #include "glomap/status.h"
 #include "glomap/tracks.h"
 
@@ -38,9 +41,19 @@ struct GlobalPositioningOptions {
   int max_num_images_eigen_sparse = 500;
   // Ceres threads; -1 = all hardware threads.
   int num_threads = -1;
+  // One more Ceres thread per this many residual blocks (see ceres_threads.h;
+  // set from GlobalMapper.min_residuals_per_ceres_thread).
+  int min_residuals_per_ceres_thread = kMinResidualBlocksPerCeresThread;
+  // Lower bound of every scale d (1 / scene units): keeps d > 0, i.e. the
+  // point in front of the camera along the observed ray, and the trivial
+  // solution d = 0 out of reach (the reference's 1e-5).
+  double min_scale = 1e-5;
   // After the solve: observations whose ray is off by more than this angle
-  // are removed (twice the angle for cameras without a focal prior).
+  // are removed ...
   double max_angular_error_deg = 1.0;
+  // ... and by more than this multiple of it for cameras without a focal
+  // prior, whose intrinsics are less certain (glomap.md §2.6: 1 and 2 deg).
+  double uncalibrated_angular_error_factor = 2.0;
   // After the solve: points whose viewing rays span less than this are
   // removed.
   double min_tri_angle_deg = 1.0;
@@ -49,7 +62,8 @@ struct GlobalPositioningOptions {
   // fraction of the observations survive the angular filter.
   double min_inlier_observation_ratio = 0.2;
 
-  bool Check() const;
+  // The first violation, naming the field as `prefix` + its name.
+  Status Check(const std::string& prefix = "") const;
 };
 
 // Rotations (the registered images' Qvec) are held fixed. Unknowns: the centre

@@ -14,6 +14,7 @@
 #include "base/pose.h"
 #include "estimators/absolute_pose.h"
 #include "estimators/pose.h"
+#include "glomap/options_check.h"
 #include "glomap/parallel_for.h"
 
 namespace glomap {
@@ -378,7 +379,10 @@ void CheckImage(const PoseVerificationOptions& options,
           static_cast<size_t>(options.ransac_max_num_trials));
     }
   }
-  if (!found || best.num_inliers < 3) return;
+  if (!found || best.num_inliers <
+                    static_cast<size_t>(colmap::P3PEstimator::kMinNumSamples)) {
+    return;
+  }
 
   // Local optimisation: refine on the inliers while the score improves.
   colmap::AbsolutePoseRefinementOptions refinement;
@@ -391,7 +395,8 @@ void CheckImage(const PoseVerificationOptions& options,
   }
   check->qvec = colmap::RotationMatrixToQuaternion(best_pose.leftCols<3>());
   check->tvec = best_pose.col(3);
-  for (int iteration = 0; iteration < 3; ++iteration) {
+  for (int iteration = 0; iteration < options.max_num_refinements;
+       ++iteration) {
     colmap::Camera camera_copy = camera;
     Eigen::Vector4d qvec = check->qvec;
     Eigen::Vector3d tvec = check->tvec;
@@ -488,17 +493,28 @@ void Replace(const PoseVerificationOptions& options, const Check& check,
 
 }  // namespace
 
-bool PoseVerificationOptions::Check() const {
-  return max_reproj_error_px > 0 && positioning_max_reproj_error_px > 0 &&
-         min_point_support >= 1 && min_num_inliers >= 4 &&
-         min_inlier_ratio >= 0 && min_inlier_ratio <= 1 &&
-         min_inlier_fraction_of_estimate >= 0 &&
-         min_inlier_fraction_of_estimate <= 1 && max_inliers_per_image >= 1 &&
-         ransac_confidence > 0 && ransac_confidence < 1 &&
-         ransac_min_num_trials > 0 &&
-         ransac_max_num_trials >= ransac_min_num_trials &&
-         max_rotation_difference_deg >= 0 && max_center_distance_ratio >= 0 &&
-         max_num_rounds >= 1 && (num_threads == -1 || num_threads > 0);
+Status PoseVerificationOptions::Check(const std::string& prefix) const {
+  OptionChecker check(prefix);
+  check.GreaterThan("max_reproj_error_px", max_reproj_error_px, 0);
+  check.GreaterThan("positioning_max_reproj_error_px",
+                    positioning_max_reproj_error_px, 0);
+  check.AtLeast("min_point_support", min_point_support, 1);
+  // P3P's three points determine the pose; a fourth verifies it.
+  check.AtLeast("min_num_inliers", min_num_inliers, 4);
+  check.InRange("min_inlier_ratio", min_inlier_ratio, 0, 1);
+  check.AtLeast("max_inliers_per_image", max_inliers_per_image, 1);
+  check.InRange("min_inlier_fraction_of_estimate",
+                min_inlier_fraction_of_estimate, 0, 1);
+  check.AtLeast("max_rotation_difference_deg", max_rotation_difference_deg, 0);
+  check.AtLeast("max_center_distance_ratio", max_center_distance_ratio, 0);
+  check.AtLeast("max_num_rounds", max_num_rounds, 1);
+  check.InRange("ransac_confidence", ransac_confidence, 0, 1, Interval::kOpen);
+  check.AtLeast("ransac_min_num_trials", ransac_min_num_trials, 1);
+  check.AtLeastField("ransac_max_num_trials", ransac_max_num_trials,
+                     "ransac_min_num_trials", ransac_min_num_trials);
+  check.AtLeast("max_num_refinements", max_num_refinements, 0);
+  check.MinusOneOrAtLeast("num_threads", num_threads, 1);
+  return check.status();
 }
 
 Status VerifyPoses(const PoseVerificationOptions& options,
@@ -507,8 +523,9 @@ Status VerifyPoses(const PoseVerificationOptions& options,
                    PoseVerificationSummary* summary,
                    const Interrupt& interrupt) {
   *summary = PoseVerificationSummary();
-  if (!options.Check()) {
-    return Status::Error("Invalid pose verification options.");
+  if (const Status check = options.Check(); !check.ok()) {
+    return Status::Error("Invalid pose verification options: " +
+                         check.message());
   }
   std::vector<colmap::image_t> image_ids = reconstruction->RegImageIds();
   std::sort(image_ids.begin(), image_ids.end());

@@ -92,13 +92,18 @@ struct PoseVerificationOptions {
   double ransac_confidence = 0.9999;
   int ransac_min_num_trials = 100;
   int ransac_max_num_trials = 10000;
+  // The RANSAC estimate is refined on its inliers (COLMAP's absolute pose
+  // refinement, intrinsics fixed) while its score improves, at most this
+  // many times.
+  int max_num_refinements = 3;
 
   // Seed of the RANSAC samples (same input and seed, same result).
   int random_seed = 0;
   // Threads; -1: all cores.
   int num_threads = -1;
 
-  bool Check() const;
+  // The first violation, naming the field as `prefix` + its name.
+  Status Check(const std::string& prefix = "") const;
 };
 
 // What the check decided for one image.

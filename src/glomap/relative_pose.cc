@@ -17,6 +17,7 @@
 #include "base/pose.h"
 #include "estimators/essential_matrix.h"
 #include "estimators/two_view_geometry.h"
+#include "glomap/options_check.h"
 #include "glomap/parallel_for.h"
 #include "optim/loransac.h"
 #include "util/random.h"
@@ -47,7 +48,8 @@ struct SampsonErrorCost {
     const Eigen::Matrix<T, 3, 1> Etx2 = E.transpose() * x2_h;
     const T x2tEx1 = x2_h.dot(Ex1);
     // The tiny constant keeps the square root differentiable when a point
-    // lies on the epipole.
+    // lies on the epipole (a numerical guard, far below any residual that
+    // matters, so not an option).
     const T denominator =
         ceres::sqrt(Ex1(0) * Ex1(0) + Ex1(1) * Ex1(1) + Etx2(0) * Etx2(0) +
                     Etx2(1) * Etx2(1) + T(1e-20));
@@ -109,6 +111,12 @@ bool TwoRayDepths(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   return true;
 }
 
+// Rays whose squared sine of parallax is below this are parallel for
+// PoseFromEssentialMatrixFast: their depth is undefined, and only the sign
+// of well-defined depths decides the decomposition (a numerical guard, as
+// colmap::PoseFromEssentialMatrix has in its triangulation).
+constexpr double kMinSinSqParallax = 1e-12;
+
 // Picks the decomposition of E with the most correspondences in front of
 // both cameras: colmap::PoseFromEssentialMatrix's criterion, but with
 // closed-form two-ray depths instead of an SVD triangulation per point and
@@ -131,7 +139,8 @@ bool PoseFromEssentialMatrixFast(const Eigen::Matrix3d& E,
     for (size_t i = 0; i < points1.size(); ++i) {
       double depth1 = 0, depth2 = 0;
       if (TwoRayDepths(candidate_R, candidate_t, points1[i].homogeneous(),
-                       points2[i].homogeneous(), 1e-12, &depth1, &depth2) &&
+                       points2[i].homogeneous(), kMinSinSqParallax, &depth1,
+                       &depth2) &&
           depth1 > 0 && depth2 > 0) {
         ++num_in_front;
       }
@@ -356,15 +365,27 @@ bool ProcessPair(const RelativePoseOptions& options, const PairTask& task) {
 
 }  // namespace
 
-bool RelativePoseOptions::Check() const {
-  return max_epipolar_error_px > 0 && max_num_trials >= 1 &&
-         min_num_trials >= 0 && min_num_trials <= max_num_trials &&
-         confidence > 0 && confidence <= 1 &&
-         max_num_refinement_iterations >= 0 && max_num_refinement_points >= 5 &&
-         max_epipolar_error_E_px > 0 && max_epipolar_error_F_px > 0 &&
-         max_epipolar_error_H_px > 0 && min_epipole_angle_deg >= 0 &&
-         min_epipole_angle_deg < 90 && min_num_inliers >= 0 &&
-         min_inlier_ratio >= 0 && min_inlier_ratio <= 1;
+Status RelativePoseOptions::Check(const std::string& prefix) const {
+  OptionChecker check(prefix);
+  check.GreaterThan("max_epipolar_error_px", max_epipolar_error_px, 0);
+  check.AtLeast("max_num_trials", max_num_trials, 1);
+  check.AtLeast("min_num_trials", min_num_trials, 0);
+  check.AtMostField("min_num_trials", min_num_trials, "max_num_trials",
+                    max_num_trials);
+  check.InRange("confidence", confidence, 0, 1, Interval::kLeftOpen);
+  check.AtLeast("max_num_refinement_iterations", max_num_refinement_iterations,
+                0);
+  // The refinement fits five degrees of freedom.
+  check.AtLeast("max_num_refinement_points", max_num_refinement_points, 5);
+  check.GreaterThan("max_epipolar_error_E_px", max_epipolar_error_E_px, 0);
+  check.GreaterThan("max_epipolar_error_F_px", max_epipolar_error_F_px, 0);
+  check.GreaterThan("max_epipolar_error_H_px", max_epipolar_error_H_px, 0);
+  check.InRange("min_epipole_angle_deg", min_epipole_angle_deg, 0, 90,
+                Interval::kRightOpen);
+  check.AtLeast("min_num_inliers", min_num_inliers, 0);
+  check.InRange("min_inlier_ratio", min_inlier_ratio, 0, 1);
+  check.MinusOneOrAtLeast("num_threads", num_threads, 1);
+  return check.status();
 }
 
 Status EstimateRelativePoses(const RelativePoseOptions& options,
@@ -375,8 +396,8 @@ Status EstimateRelativePoses(const RelativePoseOptions& options,
   if (num_invalidated_pairs != nullptr) {
     *num_invalidated_pairs = 0;
   }
-  if (!options.Check()) {
-    return Status::Error("Invalid relative pose options.");
+  if (const Status check = options.Check(); !check.ok()) {
+    return Status::Error("Invalid relative pose options: " + check.message());
   }
 
   size_t num_invalidated = 0;

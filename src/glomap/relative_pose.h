@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 
 #include "base/reconstruction.h"
 #include "glomap/status.h"
@@ -60,7 +61,8 @@ struct RelativePoseOptions {
   // not depend on thread scheduling.
   int random_seed = 0;
 
-  bool Check() const;
+  // The first violation, naming the field as `prefix` + its name.
+  Status Check(const std::string& prefix = "") const;
 };
 
 // Estimates cam2_from_cam1 (unit translation) of every valid pair, writes

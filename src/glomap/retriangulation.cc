@@ -10,6 +10,7 @@
 #include "base/database_cache.h"
 #include "glomap/ceres_interrupt.h"
 #include "glomap/ceres_threads.h"
+#include "glomap/options_check.h"
 #include "glomap/track_filters.h"
 #include "optim/bundle_adjustment.h"
 #include "sfm/incremental_triangulator.h"
@@ -55,22 +56,37 @@ size_t CompleteAndMergeTracks(
 
 }  // namespace
 
-bool RetriangulationOptions::Check() const {
-  return min_num_matches >= 1 && complete_max_reproj_error_px > 0 &&
-         merge_max_reproj_error_px > 0 && create_max_angle_error_deg > 0 &&
-         continue_max_angle_error_deg > 0 && min_angle_deg >= 0 &&
-         max_refinements >= 0 && max_refinement_change >= 0 &&
-         max_num_structure_iterations >= 1 && filter_max_reproj_error_px > 0 &&
-         filter_min_tri_angle_deg >= 0 && final_ba_max_num_iterations >= 1 &&
-         bundle_adjustment.Check();
+Status RetriangulationOptions::Check(const std::string& prefix) const {
+  OptionChecker check(prefix);
+  check.AtLeast("min_num_matches", min_num_matches, 1);
+  check.GreaterThan("complete_max_reproj_error_px",
+                    complete_max_reproj_error_px, 0);
+  check.GreaterThan("merge_max_reproj_error_px", merge_max_reproj_error_px, 0);
+  check.GreaterThan("create_max_angle_error_deg", create_max_angle_error_deg,
+                    0);
+  check.GreaterThan("continue_max_angle_error_deg",
+                    continue_max_angle_error_deg, 0);
+  check.AtLeast("min_angle_deg", min_angle_deg, 0);
+  check.AtLeast("max_refinements", max_refinements, 0);
+  check.AtLeast("max_refinement_change", max_refinement_change, 0);
+  check.AtLeast("max_num_structure_iterations", max_num_structure_iterations,
+                1);
+  check.AtLeast("structure_gradient_tolerance", structure_gradient_tolerance,
+                0);
+  check.GreaterThan("filter_max_reproj_error_px", filter_max_reproj_error_px,
+                    0);
+  check.AtLeast("filter_min_tri_angle_deg", filter_min_tri_angle_deg, 0);
+  check.AtLeast("final_ba_max_num_iterations", final_ba_max_num_iterations, 1);
+  check.Add(bundle_adjustment.Check(prefix + "bundle_adjustment."));
+  return check.status();
 }
 
 Status Retriangulate(const RetriangulationOptions& options,
                      const ViewGraph& view_graph,
                      colmap::Reconstruction* reconstruction,
                      const Interrupt& interrupt) {
-  if (!options.Check()) {
-    return Status::Error("Invalid retriangulation options.");
+  if (const Status check = options.Check(); !check.ok()) {
+    return Status::Error("Invalid retriangulation options: " + check.message());
   }
   if (reconstruction == nullptr) {
     return Status::Error("No reconstruction to retriangulate.");
@@ -171,7 +187,8 @@ Status Retriangulate(const RetriangulationOptions& options,
   ba_options.print_summary = false;
   ba_options.solver_options.max_num_iterations =
       options.max_num_structure_iterations;
-  ba_options.solver_options.gradient_tolerance = 1.0;  // COLMAP's global BA.
+  ba_options.solver_options.gradient_tolerance =
+      options.structure_gradient_tolerance;
   ba_options.solver_options.logging_type = ceres::SILENT;
   ba_options.solver_options.callbacks.push_back(&callback);
   colmap::BundleAdjustmentConfig ba_config;
@@ -184,7 +201,8 @@ Status Retriangulate(const RetriangulationOptions& options,
     const size_t num_observations = work.ComputeNumObservations();
     if (num_observations == 0) break;
     ba_options.solver_options.num_threads = CeresNumThreads(
-        options.bundle_adjustment.num_threads, num_observations);
+        options.bundle_adjustment.num_threads, num_observations,
+        options.bundle_adjustment.min_residuals_per_ceres_thread);
     colmap::BundleAdjuster bundle_adjuster(ba_options, ba_config);
     if (!bundle_adjuster.Solve(&work)) break;
     if (interrupt.IsStopped()) return Status::Cancelled();

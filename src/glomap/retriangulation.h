@@ -6,6 +6,8 @@
 // triangulator recovers many more points from all verified matches.
 #pragma once
 
+#include <string>
+
 #include "base/reconstruction.h"
 #include "glomap/bundle_adjustment.h"
 #include "glomap/status.h"
@@ -46,6 +48,10 @@ struct RetriangulationOptions {
   // the same models on all six shared datasets and saves 0.4-0.6 s on
   // KITTI_sequence_1 and templeRing.
   int max_num_structure_iterations = 10;
+  // Its Ceres gradient_tolerance (that of COLMAP's global bundle
+  // adjustment; COLMAP's BundleAdjustmentOptions default 0 would stop only
+  // on the other criteria).
+  double structure_gradient_tolerance = 1.0;
 
   // Filter of the refinement loop (COLMAP mapper defaults).
   double filter_max_reproj_error_px = 4.0;
@@ -68,7 +74,9 @@ struct RetriangulationOptions {
     return ba_options;
   }();
 
-  bool Check() const;
+  // The first violation, naming the field as `prefix` + its name (the
+  // fields of `bundle_adjustment` as `prefix` + "bundle_adjustment." + its).
+  Status Check(const std::string& prefix = "") const;
 };
 
 // Deletes all 3D points of `reconstruction` and triangulates new ones from

@@ -5,6 +5,7 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <numeric>
 #include <queue>
 #include <string>
@@ -17,6 +18,7 @@
 #include <Eigen/SparseCholesky>
 #endif
 
+#include "glomap/options_check.h"
 #include "glomap/union_find.h"
 #include "util/logging.h"
 
@@ -31,6 +33,8 @@ Eigen::Quaterniond QuaternionFromQvec(const Eigen::Vector4d& qvec) {
 }
 
 // Rotation vector (angle * axis) of a unit quaternion, angle in [0, pi].
+// Below the 1e-15 guard, the first-order form avoids dividing by a vanishing
+// vector norm (numerical guards here and in ExpMap, not options).
 Eigen::Vector3d LogMap(const Eigen::Quaterniond& q) {
   const double sign = q.w() < 0 ? -1.0 : 1.0;
   const Eigen::Vector3d v = sign * q.vec();
@@ -309,13 +313,17 @@ std::vector<Eigen::Quaterniond> InitializeFromSpanningTree(
 // order the sum of residual angles, independent of the world frame) with
 // ADMM (Boyd et al., "Distributed optimization ...", Sec. 6.1), reusing one
 // factorization of the unweighted Laplacian. rho is adapted by residual
-// balancing (ibid. Sec. 3.4.1), which leaves the factorization unchanged.
-bool SolveGroupL1(const std::vector<Edge>& edges, const Eigen::MatrixX3d& b,
+// balancing (ibid. Sec. 3.4.1), which leaves the factorization unchanged;
+// its start (1), its trigger (a residual 10 times the other) and its factor
+// (2) are the values given there and are not options: rho adapts itself, so
+// they change how fast the solve converges, not what it converges to.
+bool SolveGroupL1(const RotationAveragingOptions& options,
+                  const std::vector<Edge>& edges, const Eigen::MatrixX3d& b,
                   int num_nodes, int max_num_iterations,
                   LaplacianSolver* solver, Eigen::MatrixX3d* x,
                   int* num_iterations) {
-  constexpr double kAbsoluteTolerance = 1e-5;
-  constexpr double kRelativeTolerance = 1e-3;
+  const double absolute_tolerance = options.admm_absolute_tolerance_rad;
+  const double relative_tolerance = options.admm_relative_tolerance;
   const double num_edges = static_cast<double>(edges.size());
 
   // Start from x = 0, with z consistent with it and no dual.
@@ -345,12 +353,12 @@ bool SolveGroupL1(const std::vector<Edge>& edges, const Eigen::MatrixX3d& b,
     AccumulateTranspose(edges, z - z_old, num_nodes, &dual);
     const double dual_norm = rho * dual.norm();
     const double primal_tolerance =
-        std::sqrt(3.0 * num_edges) * kAbsoluteTolerance +
-        kRelativeTolerance * std::max({ax.norm(), z.norm(), b.norm()});
+        std::sqrt(3.0 * num_edges) * absolute_tolerance +
+        relative_tolerance * std::max({ax.norm(), z.norm(), b.norm()});
     AccumulateTranspose(edges, u, num_nodes, &dual);
     const double dual_tolerance =
-        std::sqrt(3.0 * num_nodes) * kAbsoluteTolerance +
-        kRelativeTolerance * rho * dual.norm();
+        std::sqrt(3.0 * num_nodes) * absolute_tolerance +
+        relative_tolerance * rho * dual.norm();
     if (primal_norm < primal_tolerance && dual_norm < dual_tolerance) break;
 
     if (primal_norm > 10 * dual_norm) {
@@ -385,19 +393,22 @@ Status SolveRotations(const RotationAveragingOptions& options,
     if (!solver.Factorize(Eigen::VectorXd::Ones(edges.size()))) {
       return Status::Error("Rotation averaging: factorization failed (L1).");
     }
+    // ADMM iterations of the next L1 solve: they start low and double
+    // (see l1_initial_num_admm_iterations).
+    int max_inner = std::min(options.l1_initial_num_admm_iterations,
+                             options.l1_max_num_admm_iterations);
     for (int iteration = 0; iteration < options.max_num_l1_iterations;
          ++iteration) {
       if (interrupt.IsStopped()) return Status::Cancelled();
       compute_residuals();
-      // The ADMM solve need not be exact: relinearizing matters more than
-      // inner accuracy, so inner iterations start at 10 and double (capped
-      // at 100), as in the reference.
-      const int max_inner = iteration < 4 ? 10 << iteration : 100;
       int num_inner = 0;
-      if (!SolveGroupL1(edges, residuals, num_nodes, max_inner, &solver,
-                        &update, &num_inner)) {
+      if (!SolveGroupL1(options, edges, residuals, num_nodes, max_inner,
+                        &solver, &update, &num_inner)) {
         return Status::Error("Rotation averaging: L1 solve failed.");
       }
+      max_inner = static_cast<int>(
+          std::min<int64_t>(2 * static_cast<int64_t>(max_inner),
+                            options.l1_max_num_admm_iterations));
       const double mean_step = ApplyUpdate(update, rotations);
       VLOG(1) << "Rotation averaging L1 iteration " << iteration
               << ": mean step " << mean_step * kRadToDeg << " deg, "
@@ -468,12 +479,24 @@ Problem BuildProblem(const ViewGraph& view_graph,
 
 }  // namespace
 
-bool RotationAveragingOptions::Check() const {
-  return max_num_l1_iterations >= 0 && l1_step_convergence_threshold_rad >= 0 &&
-         max_num_irls_iterations >= 0 &&
-         irls_step_convergence_threshold_rad >= 0 &&
-         irls_loss_parameter_sigma_deg > 0 && max_rotation_error_deg > 0 &&
-         num_rounds >= 1;
+Status RotationAveragingOptions::Check(const std::string& prefix) const {
+  OptionChecker check(prefix);
+  check.AtLeast("max_num_l1_iterations", max_num_l1_iterations, 0);
+  check.AtLeast("l1_step_convergence_threshold_rad",
+                l1_step_convergence_threshold_rad, 0);
+  check.AtLeast("l1_initial_num_admm_iterations",
+                l1_initial_num_admm_iterations, 1);
+  check.AtLeast("l1_max_num_admm_iterations", l1_max_num_admm_iterations, 1);
+  check.AtLeast("admm_absolute_tolerance_rad", admm_absolute_tolerance_rad, 0);
+  check.AtLeast("admm_relative_tolerance", admm_relative_tolerance, 0);
+  check.AtLeast("max_num_irls_iterations", max_num_irls_iterations, 0);
+  check.AtLeast("irls_step_convergence_threshold_rad",
+                irls_step_convergence_threshold_rad, 0);
+  check.GreaterThan("irls_loss_parameter_sigma_deg",
+                    irls_loss_parameter_sigma_deg, 0);
+  check.GreaterThan("max_rotation_error_deg", max_rotation_error_deg, 0);
+  check.AtLeast("num_rounds", num_rounds, 1);
+  return check.status();
 }
 
 double RelativeRotationErrorDeg(const ImagePair& pair,
@@ -493,8 +516,9 @@ Status AverageRotations(const RotationAveragingOptions& options,
                         const Interrupt& interrupt) {
   CHECK_NOTNULL(view_graph);
   CHECK_NOTNULL(reconstruction);
-  if (!options.Check()) {
-    return Status::Error("Rotation averaging: invalid options.");
+  if (const Status check = options.Check(); !check.ok()) {
+    return Status::Error("Rotation averaging: invalid options: " +
+                         check.message());
   }
   size_t num_rejected = 0;
   if (num_rejected_pairs != nullptr) *num_rejected_pairs = 0;
@@ -509,6 +533,7 @@ Status AverageRotations(const RotationAveragingOptions& options,
                            std::to_string(pair.image_id2) +
                            ") names an image missing from the reconstruction.");
     }
+    // A (near) zero quaternion is no rotation (a numerical guard).
     if (!pair.qvec2_from_1.allFinite() || pair.qvec2_from_1.norm() < 1e-12) {
       pair.is_valid = false;
       ++num_rejected;

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 
 #include "base/reconstruction.h"
 #include "glomap/status.h"
@@ -19,6 +20,17 @@ struct RotationAveragingOptions {
   int max_num_l1_iterations = 5;
   // The L1 stage stops when the mean per-image update is below this (rad).
   double l1_step_convergence_threshold_rad = 1e-3;
+  // ADMM iterations of each L1 solve: this many in the first, doubling in
+  // each later one up to l1_max_num_admm_iterations. The inner solve need
+  // not be exact: relinearizing matters more than inner accuracy (as in the
+  // reference).
+  int l1_initial_num_admm_iterations = 10;
+  int l1_max_num_admm_iterations = 100;
+  // ADMM stopping tolerances (Boyd et al., "Distributed optimization ...",
+  // Sec. 3.3.1): absolute per residual coordinate (rad), and relative to the
+  // size of the iterates.
+  double admm_absolute_tolerance_rad = 1e-5;
+  double admm_relative_tolerance = 1e-3;
   // Maximum number of iteratively reweighted least-squares iterations.
   int max_num_irls_iterations = 100;
   // IRLS stops when the mean per-image update is below this (rad).
@@ -36,7 +48,8 @@ struct RotationAveragingOptions {
   // with more inliers; false uses the inlier count only (as the reference).
   bool use_triangle_support_in_tree = true;
 
-  bool Check() const;
+  // The first violation, naming the field as `prefix` + its name.
+  Status Check(const std::string& prefix = "") const;
 };
 
 // Estimates a world-to-camera rotation for every image of the largest

@@ -10,15 +10,21 @@
 #include <utility>
 #include <vector>
 
+#include "glomap/options_check.h"
 #include "glomap/union_find.h"
 
 namespace glomap {
 
-bool TrackEstablishmentOptions::Check() const {
-  return max_intra_image_distance_px >= 0 && min_num_views_per_track >= 2 &&
-         max_num_views_per_track >= min_num_views_per_track &&
-         max_num_tracks >= 0 &&
-         (min_num_tracks_per_view == -1 || min_num_tracks_per_view > 0);
+Status TrackEstablishmentOptions::Check(const std::string& prefix) const {
+  OptionChecker check(prefix);
+  check.AtLeast("max_intra_image_distance_px", max_intra_image_distance_px, 0);
+  check.AtLeast("min_num_views_per_track", min_num_views_per_track, 2);
+  check.AtLeastField("max_num_views_per_track", max_num_views_per_track,
+                     "min_num_views_per_track", min_num_views_per_track);
+  check.AtLeast("max_num_tracks", max_num_tracks, 0);
+  check.MinusOneOrAtLeast("min_num_tracks_per_view", min_num_tracks_per_view,
+                          1);
+  return check.status();
 }
 
 TrackStore EstablishTracks(const TrackEstablishmentOptions& options,
@@ -27,6 +33,10 @@ TrackStore EstablishTracks(const TrackEstablishmentOptions& options,
                            size_t* num_inconsistent_tracks) {
   if (num_inconsistent_tracks != nullptr) *num_inconsistent_tracks = 0;
   TrackStore tracks;
+  if (const Status check = options.Check(); !check.ok()) {
+    LOG(ERROR) << "Invalid track options: " << check.message();
+    return tracks;
+  }
 
   // Dense feature index = offset of the image (registered images in id
   // order) + point2D_idx, so that the union-find needs no hash map.

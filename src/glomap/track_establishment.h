@@ -3,8 +3,10 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 
 #include "base/reconstruction.h"
+#include "glomap/status.h"
 #include "glomap/tracks.h"
 #include "glomap/view_graph.h"
 
@@ -38,7 +40,8 @@ struct TrackEstablishmentOptions {
   // pairwise rotation error 0.07 -> 0.15 deg; 0.07 again at 200).
   int min_num_tracks_per_view = 200;
 
-  bool Check() const;
+  // The first violation, naming the field as `prefix` + its name.
+  Status Check(const std::string& prefix = "") const;
 };
 
 // Union-find over the features (image_id, point2D_idx) joined by the inlier
@@ -50,7 +53,8 @@ struct TrackEstablishmentOptions {
 // `num_inconsistent_tracks`, otherwise the feature with the smallest
 // point2D_idx is kept. Observations within a track are sorted by image id;
 // tracks are ordered longest first, ties by their smallest feature. Matches
-// that refer to non-existent keypoints are ignored.
+// that refer to non-existent keypoints are ignored. Invalid options give no
+// tracks (the error is logged; the global mapper checks its options first).
 TrackStore EstablishTracks(const TrackEstablishmentOptions& options,
                            const ViewGraph& view_graph,
                            const colmap::Reconstruction& reconstruction,

@@ -21,6 +21,7 @@
 #include "estimators/two_view_geometry.h"
 #include "glomap/ceres_interrupt.h"
 #include "glomap/ceres_threads.h"
+#include "glomap/options_check.h"
 #include "optim/loransac.h"
 #include "sfm/incremental_mapper.h"
 #include "util/logging.h"
@@ -33,10 +34,19 @@ namespace {
 // Denominators below this (in focal-normalised units, where every
 // coefficient is O(1)) are clamped, so that the residuals stay finite for
 // near-degenerate geometry (the reference produced NaNs here, glomap#13).
+// A numerical guard, not an option: it only decides whether a residual is
+// finite, never which focal fits.
 constexpr double kMinDenominator = 1e-6;
 
-// Cauchy scale of the first, coarse solve (relative focal^2 error).
-constexpr double kCoarseLossScale = 0.5;
+// F is treated as rank < 2 (not a fundamental matrix) when its second
+// singular value is below this fraction of the first: a numerical guard
+// against dividing by a zero singular value, like kMinDenominator.
+constexpr double kMinSingularValueRatio = 1e-6;
+
+// Lower bound of every normalised focal phi (relative residuals divide by
+// phi^2): a numerical guard, not an option; a focal of 1/1000 of its start
+// lies far below any sensible min_focal_ratio (0.1), which rejects it.
+constexpr double kMinNormalisedFocal = 1e-3;
 
 // Kruppa constraints of one pair. With F's principal points removed and
 // each camera's image coordinates divided by a reference focal s_c, the
@@ -90,7 +100,7 @@ bool ComputeKruppaCoefficients(const Eigen::Matrix3d& F,
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(
       G, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::Vector3d sigma = svd.singularValues();
-  if (!(sigma(0) > 0) || !(sigma(1) / sigma(0) > 1e-6)) {
+  if (!(sigma(0) > 0) || !(sigma(1) / sigma(0) > kMinSingularValueRatio)) {
     return false;  // Rank < 2: not a fundamental matrix.
   }
   const double r = 1.0;
@@ -202,7 +212,8 @@ struct SharedCameraFocalCost {
 };
 
 // The focal every camera's parameters are scaled by; a broken stored focal
-// falls back to COLMAP's default guess so that the problem stays finite.
+// falls back to COLMAP's default guess (1.2 times the larger image side, as
+// its feature extractor sets it) so that the problem stays finite.
 double ReferenceFocal(const colmap::Camera& camera) {
   const double focal = camera.MeanFocalLength();
   if (std::isfinite(focal) && focal > 0) {
@@ -219,35 +230,18 @@ struct PairConstraint {
   KruppaCoefficients coeffs;
 };
 
-// Pairs with fewer matches are not used by the small reconstruction (the
-// incremental mapper's default minimum).
-constexpr size_t kMinNumMatches = 15;
-// A camera's focal is taken from the small reconstruction only if at least
-// this many of its images are registered in it (two views do not determine
-// the focal).
-constexpr size_t kMinNumRegisteredImagesPerCamera = 3;
-// Initial-pair search: attempts per level, and levels of relaxation (each
-// halves the inlier count and triangulation angle required, as COLMAP's
-// mapper does when it finds no initial pair).
-constexpr int kMaxNumInitAttempts = 10;
-constexpr int kNumInitRelaxations = 3;
-// Keypoints per image that the small reconstruction uses at most (those
-// matched in the most of its pairs): a few hundred determine the focal, and
-// the incremental mapper's cost grows with them (fountain-P11, thousands of
-// matched keypoints per image: 21 s with all, 0.5 s with 500).
-constexpr size_t kMaxNumKeypointsPerImage = 500;
-
-// The image with the most matches over valid pairs (among images of cameras
-// without a prior), followed by its neighbours in decreasing number of
-// matches, `num_images` at most. Ties go to the smaller image id.
+// The image with the most matches over valid pairs with at least
+// `min_num_matches` (among images of cameras without a prior), followed by
+// its neighbours in decreasing number of matches, `num_images` at most. Ties
+// go to the smaller image id.
 std::vector<colmap::image_t> SelectCalibrationImages(
     const ViewGraph& view_graph, const colmap::Reconstruction& reconstruction,
-    size_t num_images) {
+    size_t num_images, size_t min_num_matches) {
   std::map<colmap::image_t, size_t> num_matches;
   std::map<colmap::image_t, std::vector<std::pair<size_t, colmap::image_t>>>
       neighbours;
   for (const auto& [pair_id, pair] : view_graph.Pairs()) {
-    if (!pair.is_valid || pair.matches.size() < kMinNumMatches ||
+    if (!pair.is_valid || pair.matches.size() < min_num_matches ||
         pair.image_id1 == pair.image_id2 ||
         !reconstruction.ExistsImage(pair.image_id1) ||
         !reconstruction.ExistsImage(pair.image_id2)) {
@@ -288,10 +282,11 @@ std::vector<colmap::image_t> SelectCalibrationImages(
 
 // Median angle (deg) between the relative rotations of `small` and those
 // that five-point RANSAC (as the relative-pose stage runs it, without the
-// refinement) estimates from the same matches with the cameras of
-// `reconstruction`, over the pairs of two images registered in `small`;
-// negative without such a pair.
+// refinement; COLMAP's RANSAC defaults otherwise) estimates from the same
+// matches with the cameras of `reconstruction`, over the pairs of two images
+// registered in `small`; negative without such a pair.
 double MedianRotationBiasDeg(
+    const ViewGraphCalibrationOptions& options,
     const colmap::Reconstruction& small,
     const colmap::Reconstruction& reconstruction,
     const std::vector<std::pair<const ImagePair*, colmap::FeatureMatches>>&
@@ -299,7 +294,8 @@ double MedianRotationBiasDeg(
   colmap::SetPRNGSeed(0);
   std::vector<double> angles_deg;
   for (const auto& [pair, pair_matches] : matches) {
-    if (pair_matches.size() < kMinNumMatches ||
+    if (pair_matches.size() <
+            static_cast<size_t>(options.multi_view_min_num_matches) ||
         !small.IsImageRegistered(pair->image_id1) ||
         !small.IsImageRegistered(pair->image_id2)) {
       continue;
@@ -317,7 +313,8 @@ double MedianRotationBiasDeg(
     }
     colmap::RANSACOptions ransac_options;
     ransac_options.max_error =
-        0.5 * (1 / camera1.MeanFocalLength() + 1 / camera2.MeanFocalLength());
+        options.multi_view_max_epipolar_error_px *
+        (0.5 * (1 / camera1.MeanFocalLength() + 1 / camera2.MeanFocalLength()));
     colmap::LORANSAC<colmap::EssentialMatrixFivePointEstimator,
                      colmap::EssentialMatrixFivePointEstimator>
         ransac(ransac_options);
@@ -350,7 +347,7 @@ double MedianRotationBiasDeg(
 
 struct SmallReconstructionResult {
   // Refined focal of every camera without a prior that has at least
-  // kMinNumRegisteredImagesPerCamera registered images in it.
+  // multi_view_min_num_images_per_camera registered images in it.
   std::map<colmap::camera_t, double> focals;
   // MedianRotationBiasDeg of the cameras on entry.
   double rotation_bias_deg = -1;
@@ -365,6 +362,10 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
     const colmap::Reconstruction& reconstruction,
     const std::map<colmap::camera_t, colmap::Camera>& initial_cameras,
     const std::vector<colmap::image_t>& image_ids, const Interrupt& interrupt) {
+  const size_t min_num_matches =
+      static_cast<size_t>(options.multi_view_min_num_matches);
+  const size_t min_num_images_per_camera =
+      static_cast<size_t>(options.multi_view_min_num_images_per_camera);
   // The incremental mapper needs a DatabaseCache; it is filled in memory
   // from the view graph (as retriangulation does), never from the database.
   colmap::DatabaseCache cache;
@@ -387,7 +388,7 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
                                             0);
   }
   for (const auto& [pair_id, pair] : view_graph.Pairs()) {
-    if (!pair.is_valid || pair.matches.size() < kMinNumMatches ||
+    if (!pair.is_valid || pair.matches.size() < min_num_matches ||
         pair.image_id1 == pair.image_id2 ||
         selected.count(pair.image_id1) == 0 ||
         selected.count(pair.image_id2) == 0) {
@@ -408,7 +409,9 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
   for (auto& [image_id, counts] : num_pairs_per_keypoint) {
     std::vector<colmap::point2D_t> order(counts.size());
     for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-    const size_t num_kept = std::min(order.size(), kMaxNumKeypointsPerImage);
+    const size_t num_kept = std::min(
+        order.size(),
+        static_cast<size_t>(options.multi_view_max_num_keypoints_per_image));
     std::partial_sort(
         order.begin(), order.begin() + num_kept, order.end(),
         [&counts = counts](colmap::point2D_t a, colmap::point2D_t b) {
@@ -430,11 +433,11 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
                                                !kept2[match.point2D_idx2];
                                       }),
                        pair_matches.end());
-    if (pair_matches.size() < kMinNumMatches) continue;
+    if (pair_matches.size() < min_num_matches) continue;
     graph.AddCorrespondences(pair->image_id1, pair->image_id2, pair_matches);
   }
   graph.Finalize();
-  if (graph.NumImages() < kMinNumRegisteredImagesPerCamera) return {};
+  if (graph.NumImages() < min_num_images_per_camera) return {};
   for (const colmap::image_t image_id : image_ids) {
     if (!graph.ExistsImage(image_id)) continue;
     colmap::Image& image = cache.Image(image_id);
@@ -488,14 +491,14 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
 
   // Registration of the other images as COLMAP's mapper does it: local
   // bundle adjustment after each image, global refinement whenever the
-  // model grew by 10%, when no image registers (then once more), and at the
-  // end.
+  // model grew by its ba_global_images_ratio or ba_global_points_ratio (10%),
+  // when no image registers (then once more), and at the end.
   auto global_refinement = [&](colmap::IncrementalMapper* mapper,
                                const colmap::IncrementalMapper::Options& mo) {
     mapper->CompleteTracks(tri_options);
     mapper->MergeTracks(tri_options);
     mapper->Retriangulate(tri_options);
-    for (int i = 0; i < 2; ++i) {
+    for (int i = 0; i < options.multi_view_num_global_refinements; ++i) {
       mapper->AdjustGlobalBundle(mo, global_ba);
       mapper->FilterPoints(mo);
     }
@@ -515,8 +518,10 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
         mapper->AdjustLocalBundle(mo, local_ba, tri_options, image_id,
                                   mapper->GetModifiedPoints3D());
         mapper->ClearModifiedPoints3D();
-        if (small.NumRegImages() >= 1.1 * num_images_at_refinement ||
-            small.NumPoints3D() >= 1.1 * num_points_at_refinement) {
+        if (small.NumRegImages() >= mapper_options.ba_global_images_ratio *
+                                        num_images_at_refinement ||
+            small.NumPoints3D() >= mapper_options.ba_global_points_ratio *
+                                       num_points_at_refinement) {
           global_refinement(mapper, mo);
           num_images_at_refinement = small.NumRegImages();
           num_points_at_refinement = small.NumPoints3D();
@@ -538,19 +543,21 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
   // Initial pairs as COLMAP's mapper tries them, relaxed when none is found;
   // a model that stays small (a weak initial pair) is discarded and the next
   // pair tried. The largest model decides.
-  const size_t enough_images =
-      std::max(kMinNumRegisteredImagesPerCamera, (image_ids.size() + 1) / 2);
+  const size_t enough_images = std::max(
+      min_num_images_per_camera,
+      static_cast<size_t>(std::ceil(options.multi_view_min_model_ratio *
+                                    static_cast<double>(image_ids.size()))));
   SmallReconstructionResult result;
   size_t best_num_images = 0;
   colmap::IncrementalMapper::Options mo = init_options;
-  for (int level = 0;
-       level < kNumInitRelaxations && best_num_images < enough_images;
+  for (int level = 0; level < options.multi_view_num_init_relaxations &&
+                      best_num_images < enough_images;
        ++level) {
     // A new mapper per level, so that pairs tried before are tried again.
     colmap::IncrementalMapper mapper(&cache);
     for (int attempt = 0;
-         attempt < kMaxNumInitAttempts && best_num_images < enough_images &&
-         !interrupt.IsStopped();
+         attempt < options.multi_view_max_num_init_attempts &&
+         best_num_images < enough_images && !interrupt.IsStopped();
          ++attempt) {
       colmap::Reconstruction small;
       mapper.BeginReconstruction(&small);
@@ -576,14 +583,14 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
             result.focals.clear();
             for (const auto& [camera_id, count] : num_registered) {
               const colmap::Camera& camera = small.Camera(camera_id);
-              if (count >= kMinNumRegisteredImagesPerCamera &&
+              if (count >= min_num_images_per_camera &&
                   !camera.HasPriorFocalLength()) {
                 result.focals[camera_id] = camera.MeanFocalLength();
               }
             }
             result.num_registered = small.NumRegImages();
             result.rotation_bias_deg =
-                MedianRotationBiasDeg(small, reconstruction, matches);
+                MedianRotationBiasDeg(options, small, reconstruction, matches);
           }
         }
       }
@@ -608,8 +615,12 @@ std::vector<colmap::camera_t> CalibrateFromSmallReconstruction(
   }
   const std::vector<colmap::image_t> image_ids = SelectCalibrationImages(
       view_graph, *reconstruction,
-      static_cast<size_t>(options.multi_view_num_images));
-  if (image_ids.size() < kMinNumRegisteredImagesPerCamera) return {};
+      static_cast<size_t>(options.multi_view_num_images),
+      static_cast<size_t>(options.multi_view_min_num_matches));
+  if (image_ids.size() <
+      static_cast<size_t>(options.multi_view_min_num_images_per_camera)) {
+    return {};
+  }
   const SmallReconstructionResult small =
       FocalsFromSmallReconstruction(options, view_graph, *reconstruction,
                                     initial_cameras, image_ids, interrupt);
@@ -651,10 +662,38 @@ std::vector<colmap::camera_t> CalibrateFromSmallReconstruction(
 
 }  // namespace
 
-bool ViewGraphCalibrationOptions::Check() const {
-  return min_focal_ratio > 0 && max_focal_ratio > min_focal_ratio &&
-         max_two_view_error > 0 && loss_scale > 0 && max_num_iterations >= 0 &&
-         multi_view_num_images >= 0 && multi_view_min_rotation_bias_deg >= 0;
+Status ViewGraphCalibrationOptions::Check(const std::string& prefix) const {
+  OptionChecker check(prefix);
+  check.GreaterThan("min_focal_ratio", min_focal_ratio, 0);
+  check.GreaterThanField("max_focal_ratio", max_focal_ratio, "min_focal_ratio",
+                         min_focal_ratio);
+  check.GreaterThan("max_two_view_error", max_two_view_error, 0);
+  check.GreaterThan("loss_scale", loss_scale, 0);
+  check.GreaterThan("coarse_loss_scale", coarse_loss_scale, 0);
+  check.AtLeast("max_num_iterations", max_num_iterations, 0);
+  check.AtLeast("function_tolerance", function_tolerance, 0);
+  check.AtLeast("min_num_free_cameras_sparse", min_num_free_cameras_sparse, 0);
+  check.MinusOneOrAtLeast("num_threads", num_threads, 1);
+  check.AtLeast("min_residuals_per_ceres_thread",
+                min_residuals_per_ceres_thread, 1);
+  check.AtLeast("multi_view_num_images", multi_view_num_images, 0);
+  check.AtLeast("multi_view_min_rotation_bias_deg",
+                multi_view_min_rotation_bias_deg, 0);
+  check.AtLeast("multi_view_min_num_matches", multi_view_min_num_matches, 1);
+  check.AtLeast("multi_view_min_num_images_per_camera",
+                multi_view_min_num_images_per_camera, 2);
+  check.AtLeast("multi_view_max_num_keypoints_per_image",
+                multi_view_max_num_keypoints_per_image, 1);
+  check.AtLeast("multi_view_max_num_init_attempts",
+                multi_view_max_num_init_attempts, 1);
+  check.AtLeast("multi_view_num_init_relaxations",
+                multi_view_num_init_relaxations, 1);
+  check.InRange("multi_view_min_model_ratio", multi_view_min_model_ratio, 0, 1);
+  check.AtLeast("multi_view_num_global_refinements",
+                multi_view_num_global_refinements, 1);
+  check.GreaterThan("multi_view_max_epipolar_error_px",
+                    multi_view_max_epipolar_error_px, 0);
+  return check.status();
 }
 
 bool FundamentalMatrixFocalResiduals(const Eigen::Matrix3d& F,
@@ -679,8 +718,9 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
   if (num_invalidated_pairs != nullptr) {
     *num_invalidated_pairs = 0;
   }
-  if (!options.Check()) {
-    return Status::Error("Invalid view-graph calibration options.");
+  if (const Status check = options.Check(); !check.ok()) {
+    return Status::Error("Invalid view-graph calibration options: " +
+                         check.message());
   }
 
   // Normalised focal phi_c = f_c / s_c per camera, 1 at the start; std::map
@@ -758,7 +798,8 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
   // then fits them while ignoring inconsistent pairs.
   ceres::Problem problem;
   ceres::LossFunctionWrapper* loss = new ceres::LossFunctionWrapper(
-      new ceres::CauchyLoss(std::max(kCoarseLossScale, options.loss_scale)),
+      new ceres::CauchyLoss(
+          std::max(options.coarse_loss_scale, options.loss_scale)),
       ceres::TAKE_OWNERSHIP);
   for (const PairConstraint& constraint : constraints) {
     if (constraint.camera_id1 == constraint.camera_id2) {
@@ -778,7 +819,7 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
     if (camera_is_free(camera_id)) {
       ++num_free_cameras;
       // Keeps phi^2 away from zero (relative residuals divide by it).
-      problem.SetParameterLowerBound(&phi, 0, 1e-3);
+      problem.SetParameterLowerBound(&phi, 0, kMinNormalisedFocal);
     } else {
       problem.SetParameterBlockConstant(&phi);
     }
@@ -786,17 +827,18 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
 
   ceres::Solver::Options solver_options;
   solver_options.max_num_iterations = options.max_num_iterations;
-  solver_options.function_tolerance = 1e-5;
+  solver_options.function_tolerance = options.function_tolerance;
   solver_options.num_threads =
-      CeresNumThreads(options.num_threads, problem.NumResidualBlocks());
+      CeresNumThreads(options.num_threads, problem.NumResidualBlocks(),
+                      options.min_residuals_per_ceres_thread);
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
   InterruptCallback interrupt_callback(interrupt);
   solver_options.callbacks.push_back(&interrupt_callback);
   // One scalar per camera: dense is exact and robust for small problems
-  // (a sparse Cholesky on a near-singular system failed upstream, glomap
-  // #147); large ones need the sparse structure.
-  if (num_free_cameras < 50) {
+  // (see min_num_free_cameras_sparse); large ones need the sparse structure.
+  if (num_free_cameras <
+      static_cast<size_t>(options.min_num_free_cameras_sparse)) {
     solver_options.linear_solver_type = ceres::DENSE_QR;
   } else if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(
                  ceres::SUITE_SPARSE)) {
@@ -810,7 +852,8 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
     solver_options.linear_solver_type = ceres::CGNR;
   }
   for (const double loss_scale :
-       {std::max(kCoarseLossScale, options.loss_scale), options.loss_scale}) {
+       {std::max(options.coarse_loss_scale, options.loss_scale),
+        options.loss_scale}) {
     loss->Reset(new ceres::CauchyLoss(loss_scale), ceres::TAKE_OWNERSHIP);
     ceres::Solver::Summary summary;
     ceres::Solve(solver_options, &problem, &summary);

@@ -31,8 +31,10 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 
 #include "base/reconstruction.h"
+#include "glomap/ceres_threads.h"
 #include "glomap/status.h"
 #include "glomap/view_graph.h"
 
@@ -47,12 +49,28 @@ struct ViewGraphCalibrationOptions {
   // this after the solve are invalidated.
   double max_two_view_error = 2.0;
   // Scale of the Cauchy loss on the relative focal^2 residuals (final solve;
-  // a first solve uses max(0.5, this) to leave the loss' flat tail).
+  // a first solve uses max(coarse_loss_scale, this) to leave the loss' flat
+  // tail).
   double loss_scale = 0.01;
-  // Maximum number of Ceres iterations.
+  // Cauchy scale of that first, coarse solve (relative focal^2 error): from
+  // the initial guess (often 20-50% off) every residual lies in the flat
+  // tail of the narrow loss, where the steps stall.
+  double coarse_loss_scale = 0.5;
+  // Maximum number of Ceres iterations (per solve).
   int max_num_iterations = 100;
+  // Relative cost change at which each solve stops (Ceres'
+  // function_tolerance).
+  double function_tolerance = 1e-5;
+  // From this many cameras without a focal prior on, the solve uses a sparse
+  // Cholesky; below, dense QR, which is exact and robust on the small
+  // problem of one scalar per camera (a sparse Cholesky on a near-singular
+  // system failed upstream, glomap #147).
+  int min_num_free_cameras_sparse = 50;
   // Ceres threads; -1 uses all cores.
   int num_threads = -1;
+  // One more Ceres thread per this many residual blocks (see ceres_threads.h;
+  // set from GlobalMapper.min_residuals_per_ceres_thread).
+  int min_residuals_per_ceres_thread = kMinResidualBlocksPerCeresThread;
   // Size of the small incremental reconstruction whose focal lengths replace
   // those from the fundamental matrices: the best-connected image and its
   // most strongly matched neighbours, this many images in all (0: the
@@ -69,7 +87,41 @@ struct ViewGraphCalibrationOptions {
   // entry-P10: 8 deg).
   double multi_view_min_rotation_bias_deg = 5;
 
-  bool Check() const;
+  // The small reconstruction's own settings follow; everything else in it is
+  // COLMAP 3.8's incremental mapper with its defaults.
+
+  // Pairs with fewer matches are not used (the incremental mapper's default
+  // minimum).
+  int multi_view_min_num_matches = 15;
+  // A camera's focal is taken from the small reconstruction only if at least
+  // this many of its images are registered in it (two views do not determine
+  // the focal); fewer selected or connected images skip the reconstruction.
+  int multi_view_min_num_images_per_camera = 3;
+  // Keypoints per image that it uses at most (those matched in the most of
+  // its pairs): a few hundred determine the focal, and the incremental
+  // mapper's cost grows with them (fountain-P11, thousands of matched
+  // keypoints per image: 21 s with all, 0.5 s with 500).
+  int multi_view_max_num_keypoints_per_image = 500;
+  // Initial-pair search: attempts per level, and levels (each after the
+  // first halves the inlier count and triangulation angle required, as
+  // COLMAP's mapper does when it finds no initial pair). The search stops
+  // once a model holds multi_view_min_model_ratio of the selected images
+  // (and at least multi_view_min_num_images_per_camera); the largest model
+  // decides.
+  int multi_view_max_num_init_attempts = 10;
+  int multi_view_num_init_relaxations = 3;
+  double multi_view_min_model_ratio = 0.5;
+  // Bundle adjustment and point filtering passes of each global refinement
+  // of the small reconstruction (COLMAP's mapper runs up to 5, stopping once
+  // few observations change).
+  int multi_view_num_global_refinements = 2;
+  // RANSAC threshold of the five-point estimates that the rotation bias is
+  // measured on, pixels (the relative-pose stage's default
+  // rp_max_epipolar_error_px).
+  double multi_view_max_epipolar_error_px = 1.0;
+
+  // The first violation, naming the field as `prefix` + its name.
+  Status Check(const std::string& prefix = "") const;
 };
 
 // Estimates one focal length per camera WITHOUT a focal prior
@@ -78,16 +130,17 @@ struct ViewGraphCalibrationOptions {
 // kept at the camera's current one and cameras with a prior stay constant.
 // Then, unless `multi_view_num_images` is 0, a small incremental
 // reconstruction is built from the keypoints (the images' Points2D) and the
-// valid pairs' matches (at least 15) of the image with the most matches and
-// its most strongly matched neighbours, all cameras starting from their
-// focal on entry; a free camera with at least three images in it takes its
-// focal from it. Accepted focals (new/old within [min_focal_ratio,
-// max_focal_ratio]) are written into every focal parameter of the camera
-// (so fx = fy afterwards). Pairs touching at least one free camera whose
-// residual at the final focals exceeds `max_two_view_error` are invalidated;
-// their number goes to `num_invalidated_pairs` when it is not null. Without
-// any free camera the function returns Ok and changes nothing. Returns
-// Cancelled when `interrupt` fires (focals may then be partly changed).
+// valid pairs' matches (at least `multi_view_min_num_matches`) of the image
+// with the most matches and its most strongly matched neighbours, all cameras
+// starting from their focal on entry; a free camera with at least
+// `multi_view_min_num_images_per_camera` images in it takes its focal from it.
+// Accepted focals (new/old within [min_focal_ratio, max_focal_ratio]) are
+// written into every focal parameter of the camera (so fx = fy afterwards).
+// Pairs touching at least one free camera whose residual at the final focals
+// exceeds `max_two_view_error` are invalidated; their number goes to
+// `num_invalidated_pairs` when it is not null. Without any free camera the
+// function returns Ok and changes nothing. Returns Cancelled when `interrupt`
+// fires (focals may then be partly changed).
 Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
                           colmap::Reconstruction* reconstruction,
                           ViewGraph* view_graph,

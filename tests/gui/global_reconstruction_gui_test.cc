@@ -15,14 +15,16 @@
 #include <iterator>
 #include <string>
 #include <thread>
+#include <type_traits>
+#include <variant>
 #include <vector>
 
 #include "base/database.h"
 #include "colmap_ext/global_mapper_options.h"
 #include "colmap_ext/terminate_handler.h"
-#include "tests/support/synthetic_scene.h"
 #include "gui/global_mapper_options_dialog.h"
 #include "gui/global_reconstruction_ui.h"
+#include "tests/support/synthetic_scene.h"
 #include "tests/support/test_paths.h"
 #include "ui/main_window.h"
 #include "util/option_manager.h"
@@ -723,6 +725,75 @@ TEST(GlobalReconstructionGui, ClosingTheWindowStopsTheRun) {
   EXPECT_EQ(ui->Models().Size(), 0u);
   ASSERT_EQ(questions.size(), 1);
   EXPECT_TRUE(questions.front().contains("quit"));
+}
+
+// The options dialog shows every GlobalMapper.* option with its default
+// (among them those that were constants in the code before issue 13), and
+// refuses a value out of range with the command line's message, which names
+// the option and its range.
+TEST(GlobalReconstructionGui, OptionsDialogShowsDefaultsAndNamesBadValues) {
+  glomap::GlobalMapperOptions options;
+  GlobalMapperOptionsDialog dialog(nullptr, &options, {});
+  dialog.show();
+  ProcessEventsFor(100);
+  // The editor in the row whose label is `key`.
+  auto editor = [&dialog](const std::string& key) -> QWidget* {
+    for (QLabel* label : dialog.findChildren<QLabel*>()) {
+      if (label->text().toStdString() != key) continue;
+      QFormLayout* form =
+          qobject_cast<QFormLayout*>(label->parentWidget()->layout());
+      if (form == nullptr) continue;
+      int row = -1;
+      QFormLayout::ItemRole role;
+      form->getWidgetPosition(label, &row, &role);
+      return form->itemAt(row, QFormLayout::FieldRole)->widget();
+    }
+    return nullptr;
+  };
+  glomap::GlobalMapperOptions defaults;
+  for (const glomap::GlobalMapperOptionEntry& entry :
+       glomap::GlobalMapperOptionTable(&defaults)) {
+    QWidget* widget = editor(entry.key);
+    ASSERT_NE(widget, nullptr) << entry.key;
+    std::visit(
+        [&](auto* value) {
+          using T = std::remove_pointer_t<decltype(value)>;
+          if constexpr (std::is_same_v<T, bool>) {
+            QCheckBox* box = qobject_cast<QCheckBox*>(widget);
+            ASSERT_NE(box, nullptr) << entry.key;
+            EXPECT_EQ(box->isChecked(), *value) << entry.key;
+          } else if constexpr (std::is_same_v<T, int>) {
+            QSpinBox* spin_box = qobject_cast<QSpinBox*>(widget);
+            ASSERT_NE(spin_box, nullptr) << entry.key;
+            EXPECT_EQ(spin_box->value(), *value) << entry.key;
+          } else {
+            QLineEdit* line_edit = qobject_cast<QLineEdit*>(widget);
+            ASSERT_NE(line_edit, nullptr) << entry.key;
+            EXPECT_EQ(QLocale::c().toDouble(line_edit->text()), *value)
+                << entry.key;
+          }
+        },
+        entry.value);
+  }
+
+  QSpinBox* dense_schur =
+      qobject_cast<QSpinBox*>(editor("ba_max_num_images_dense_schur"));
+  ASSERT_NE(dense_schur, nullptr);
+  EXPECT_EQ(dense_schur->value(), 150);
+  dense_schur->setValue(-5);
+  QStringList messages;
+  {
+    ModalDialogHandler message_boxes(
+        RecordMessageBoxes(&messages, /*answer_yes=*/false, /*accept=*/true));
+    EXPECT_FALSE(dialog.Apply());
+  }
+  ASSERT_EQ(messages.size(), 1);
+  EXPECT_EQ(messages.front().toStdString(),
+            "GlobalMapper.ba_max_num_images_dense_schur must be >= 0, is -5");
+  EXPECT_EQ(options.bundle_adjustment.max_num_images_dense_schur, 150);
+  dense_schur->setValue(100);
+  EXPECT_TRUE(dialog.Apply());
+  EXPECT_EQ(options.bundle_adjustment.max_num_images_dense_schur, 100);
 }
 
 TEST(GlobalReconstructionGui, ErrorShowsTheCommandLineMessage) {
