@@ -164,26 +164,55 @@ size_t CountOccurrences(const std::string& text, const std::string& what) {
   return count;
 }
 
-// The log lines the reader wrote while reading `path`.
-std::string ReadAndCaptureLog(const std::string& path,
-                              colmap::Reconstruction* reconstruction,
-                              ViewGraph* view_graph, Status* status) {
-  ::testing::internal::CaptureStderr();
-  *status =
-      ReadDatabase(path, DatabaseReaderOptions(), reconstruction, view_graph);
-  return ::testing::internal::GetCapturedStderr();
-}
-
-Status Read(const std::string& path, const DatabaseReaderOptions& options,
-            colmap::Reconstruction* reconstruction, ViewGraph* view_graph) {
-  return ReadDatabase(path, options, reconstruction, view_graph);
-}
-
-Status ReadDefault(const std::string& path) {
+// What the reader made of one database.
+struct ReadResult {
   colmap::Reconstruction reconstruction;
   ViewGraph view_graph;
-  return ReadDatabase(path, DatabaseReaderOptions(), &reconstruction,
-                      &view_graph);
+  Status status;
+  std::string log;  // the lines it wrote, where ReadAndCaptureLog caught them
+};
+
+ReadResult Read(const std::string& path, const DatabaseReaderOptions& options =
+                                             DatabaseReaderOptions()) {
+  ReadResult result;
+  result.status =
+      ReadDatabase(path, options, &result.reconstruction, &result.view_graph);
+  return result;
+}
+
+Status ReadStatus(const std::string& path) { return Read(path).status; }
+
+// Read() with the default options, catching the log lines the reader wrote.
+ReadResult ReadAndCaptureLog(const std::string& path) {
+  ::testing::internal::CaptureStderr();
+  ReadResult result = Read(path);
+  result.log = ::testing::internal::GetCapturedStderr();
+  return result;
+}
+
+// Whether the reader's `log` has `text`; if not, the failure shows the log.
+::testing::AssertionResult LogHas(const std::string& log,
+                                  const std::string& text) {
+  if (log.find(text) != std::string::npos) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "The log lacks \"" << text << "\":\n"
+                                       << log;
+}
+
+// Overwrites the parameters of camera `camera_id` in the database at `path`.
+void SetCameraParams(const std::string& path, colmap::camera_t camera_id,
+                     const std::vector<double>& params) {
+  ExecuteSqlWithBlob(path,
+                     "UPDATE cameras SET params = ?1 WHERE camera_id = " +
+                         std::to_string(camera_id) + ";",
+                     params.data(), params.size() * sizeof(double));
+}
+
+// SQL that replaces `table` by a copy without its primary key, in which an id
+// may repeat.
+std::string DropPrimaryKey(const std::string& table) {
+  return "CREATE TABLE " + table + "_copy AS SELECT * FROM " + table + ";" +
+         "DROP TABLE " + table + ";" + "ALTER TABLE " + table +
+         "_copy RENAME TO " + table + ";";
 }
 
 TEST(DatabaseReader, ReadsEveryField) {
@@ -191,10 +220,7 @@ TEST(DatabaseReader, ReadsEveryField) {
   const std::string path = MakeTestDatabase(dir);
   const std::string digest = testing::FileDigest(path);
 
-  colmap::Reconstruction reconstruction;
-  ViewGraph view_graph;
-  const Status status =
-      Read(path, DatabaseReaderOptions(), &reconstruction, &view_graph);
+  const auto& [reconstruction, view_graph, status, log] = Read(path);
   ASSERT_TRUE(status.ok()) << status.message();
   EXPECT_EQ(testing::FileDigest(path), digest);
   EXPECT_FALSE(std::filesystem::exists(path + "-shm"));
@@ -291,9 +317,8 @@ TEST(DatabaseReader, Filters) {
   {
     DatabaseReaderOptions options;
     options.min_num_matches = 5;
-    colmap::Reconstruction reconstruction;
-    ViewGraph view_graph;
-    ASSERT_TRUE(Read(path, options, &reconstruction, &view_graph).ok());
+    const auto& [reconstruction, view_graph, status, log] = Read(path, options);
+    ASSERT_TRUE(status.ok());
     EXPECT_EQ(view_graph.NumPairs(), 5);
     EXPECT_EQ(view_graph.Pairs().count(pair_id(1, 4)), 1);
     EXPECT_EQ(view_graph.Pairs().count(pair_id(3, 4)), 0);
@@ -301,9 +326,7 @@ TEST(DatabaseReader, Filters) {
   {
     DatabaseReaderOptions options;
     options.min_num_matches = 21;
-    colmap::Reconstruction reconstruction;
-    ViewGraph view_graph;
-    const Status status = Read(path, options, &reconstruction, &view_graph);
+    const Status status = Read(path, options).status;
     EXPECT_FALSE(status.ok());
     // (2,4) has 22 matches, but only 20 valid ones.
     EXPECT_NE(status.message().find("no verified image pairs with at least 21 "
@@ -315,18 +338,16 @@ TEST(DatabaseReader, Filters) {
   {
     DatabaseReaderOptions options;
     options.ignore_watermarks = true;
-    colmap::Reconstruction reconstruction;
-    ViewGraph view_graph;
-    ASSERT_TRUE(Read(path, options, &reconstruction, &view_graph).ok());
+    const auto& [reconstruction, view_graph, status, log] = Read(path, options);
+    ASSERT_TRUE(status.ok());
     EXPECT_EQ(view_graph.NumPairs(), 3);
     EXPECT_EQ(view_graph.Pairs().count(pair_id(2, 3)), 0);
   }
   {
     DatabaseReaderOptions options;
     options.image_names = {"img1.jpg", "img3.jpg", "not_there.jpg"};
-    colmap::Reconstruction reconstruction;
-    ViewGraph view_graph;
-    ASSERT_TRUE(Read(path, options, &reconstruction, &view_graph).ok());
+    const auto& [reconstruction, view_graph, status, log] = Read(path, options);
+    ASSERT_TRUE(status.ok());
     EXPECT_EQ(reconstruction.NumImages(), 2);
     EXPECT_TRUE(reconstruction.ExistsImage(1));
     EXPECT_TRUE(reconstruction.ExistsImage(3));
@@ -337,9 +358,7 @@ TEST(DatabaseReader, Filters) {
   {
     DatabaseReaderOptions options;
     options.image_names = {"nothing.jpg"};
-    colmap::Reconstruction reconstruction;
-    ViewGraph view_graph;
-    EXPECT_FALSE(Read(path, options, &reconstruction, &view_graph).ok());
+    EXPECT_FALSE(Read(path, options).status.ok());
   }
 }
 
@@ -363,10 +382,7 @@ TEST(DatabaseReader, ReadsWhileWriterHasLog) {
   ASSERT_TRUE(std::filesystem::exists(path + "-wal"));
   ASSERT_GT(std::filesystem::file_size(path + "-wal"), 0);
 
-  colmap::Reconstruction reconstruction;
-  ViewGraph view_graph;
-  const Status status =
-      Read(path, DatabaseReaderOptions(), &reconstruction, &view_graph);
+  const auto& [reconstruction, view_graph, status, log] = Read(path);
   ASSERT_TRUE(status.ok()) << status.message();
   EXPECT_EQ(reconstruction.NumImages(), 2);
   EXPECT_EQ(view_graph.NumPairs(), 1);
@@ -392,12 +408,11 @@ TEST_P(DatabaseReaderConcurrentWriter, ReadsOneCommittedStateOrRefuses) {
   colmap::Reconstruction ground_truth;
   ASSERT_TRUE(WriteSyntheticScene(scene, path, &ground_truth).ok());
   ASSERT_FALSE(std::filesystem::exists(path + "-wal"));
-  colmap::Reconstruction original;
-  ViewGraph original_pairs;
-  ASSERT_TRUE(
-      Read(path, DatabaseReaderOptions(), &original, &original_pairs).ok());
-  const double focal = original.Camera(1).Params(0);
-  const colmap::image_pair_t pair_id = original_pairs.Pairs().rbegin()->first;
+  const ReadResult original = Read(path);
+  ASSERT_TRUE(original.status.ok());
+  const double focal = original.reconstruction.Camera(1).Params(0);
+  const colmap::image_pair_t pair_id =
+      original.view_graph.Pairs().rbegin()->first;
 
   const pid_t writer = fork();
   ASSERT_GE(writer, 0);
@@ -424,7 +439,7 @@ TEST_P(DatabaseReaderConcurrentWriter, ReadsOneCommittedStateOrRefuses) {
       } else {
         exec("INSERT INTO two_view_geometries SELECT * FROM saved;");
       }
-      colmap::Camera camera = original.Camera(1);
+      colmap::Camera camera = original.reconstruction.Camera(1);
       camera.Params(0) = i % 2 == 0 ? 1.5 * focal : focal;
       sqlite3_stmt* stmt = nullptr;
       sqlite3_prepare_v2(db, "UPDATE cameras SET params=? WHERE camera_id=1;",
@@ -441,10 +456,7 @@ TEST_P(DatabaseReaderConcurrentWriter, ReadsOneCommittedStateOrRefuses) {
   int num_reads = 0, num_changed = 0, num_refused = 0;
   const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(3);
   while (std::chrono::steady_clock::now() < end) {
-    colmap::Reconstruction reconstruction;
-    ViewGraph view_graph;
-    const Status status =
-        Read(path, DatabaseReaderOptions(), &reconstruction, &view_graph);
+    const auto& [reconstruction, view_graph, status, log] = Read(path);
     ++num_reads;
     if (!status.ok()) {
       ++num_refused;
@@ -456,7 +468,8 @@ TEST_P(DatabaseReaderConcurrentWriter, ReadsOneCommittedStateOrRefuses) {
     const bool camera_changed = reconstruction.Camera(1).Params(0) != focal;
     const bool pair_changed = view_graph.Pairs().count(pair_id) == 0;
     EXPECT_EQ(camera_changed, pair_changed) << "a mix of two states";
-    EXPECT_EQ(view_graph.NumPairs() + pair_changed, original_pairs.NumPairs());
+    EXPECT_EQ(view_graph.NumPairs() + pair_changed,
+              original.view_graph.NumPairs());
     num_changed += camera_changed;
   }
   int status = 0;
@@ -485,10 +498,7 @@ TEST(DatabaseReader, FuzzRegressionsAreErrors) {
         testing::CreateTestDir("database_reader_fuzz_regression") + "/" +
         entry.path().filename().string();
     std::filesystem::copy_file(entry.path(), copy);
-    colmap::Reconstruction reconstruction;
-    ViewGraph view_graph;
-    const Status status =
-        Read(copy, DatabaseReaderOptions(), &reconstruction, &view_graph);
+    const Status status = ReadStatus(copy);
     EXPECT_FALSE(status.ok()) << entry.path();
     EXPECT_EQ(status.message().find("Internal error"), std::string::npos)
         << status.message();
@@ -507,21 +517,21 @@ TEST(DatabaseReader, Errors) {
     EXPECT_EQ(status.message().find('\n'), std::string::npos);
   };
 
-  expect_error(ReadDefault(dir + "/missing.db"), "does not exist");
-  expect_error(ReadDefault(dir), "is a folder");
+  expect_error(ReadStatus(dir + "/missing.db"), "does not exist");
+  expect_error(ReadStatus(dir), "is a folder");
 
   const std::string text_path = dir + "/text.db";
   std::ofstream(text_path) << "this is not a database, just some text that is "
                               "long enough to be a header\n";
-  expect_error(ReadDefault(text_path), "is not a COLMAP database");
+  expect_error(ReadStatus(text_path), "is not a COLMAP database");
 
   const std::string other_path = dir + "/other.db";
   ExecuteSql(other_path, "CREATE TABLE foo (a INTEGER);");
-  expect_error(ReadDefault(other_path), "is not a COLMAP database");
+  expect_error(ReadStatus(other_path), "is not a COLMAP database");
 
   const std::string empty_path = dir + "/empty.db";
   { colmap::Database database(empty_path); }
-  expect_error(ReadDefault(empty_path), "contains no images");
+  expect_error(ReadStatus(empty_path), "contains no images");
 
   const std::string one_image_path = dir + "/one_image.db";
   const std::string no_pairs_path = dir + "/no_pairs.db";
@@ -538,39 +548,35 @@ TEST(DatabaseReader, Errors) {
       if (path == one_image_path) break;
     }
   }
-  expect_error(ReadDefault(one_image_path),
+  expect_error(ReadStatus(one_image_path),
                "Only one image of " + one_image_path +
                    " can be used (a): a reconstruction needs at least two.");
-  expect_error(ReadDefault(no_pairs_path),
+  expect_error(ReadStatus(no_pairs_path),
                "no verified image pairs with at least 15 matches: run a "
                "matcher first");
 
-  const auto broken_copy = [&](const std::string& name,
-                               const std::string& sql) {
-    const std::string dir_copy =
-        testing::CreateTestDir("database_reader_errors_" + name);
-    const std::string path = MakeTestDatabase(dir_copy);
-    ExecuteSql(path, sql);
-    return path;
+  // Damage to a copy of the test database, and the error it gives.
+  const struct {
+    std::string name;
+    std::string sql;
+    std::string error;
+  } damages[] = {
+      {"model", "UPDATE cameras SET model = 42 WHERE camera_id = 1;",
+       "unsupported camera model id 42"},
+      {"params",
+       "UPDATE cameras SET params = zeroblob(24) WHERE camera_id = 2;",
+       "has 3 parameters, but its model PINHOLE needs 4"},
+      {"camera_ref", "UPDATE images SET camera_id = 99 WHERE image_id = 2;",
+       "refers to camera 99"},
+      {"keypoints", "UPDATE keypoints SET cols = 3;", "is corrupt"},
+      {"no_table", "DROP TABLE two_view_geometries;",
+       "is not a COLMAP database (no table two_view_geometries)"},
   };
-  expect_error(ReadDefault(broken_copy("model",
-                                       "UPDATE cameras SET model = 42 WHERE "
-                                       "camera_id = 1;")),
-               "unsupported camera model id 42");
-  expect_error(ReadDefault(broken_copy("params",
-                                       "UPDATE cameras SET params = "
-                                       "zeroblob(24) WHERE camera_id = 2;")),
-               "has 3 parameters, but its model PINHOLE needs 4");
-  expect_error(ReadDefault(broken_copy("camera_ref",
-                                       "UPDATE images SET camera_id = 99 WHERE "
-                                       "image_id = 2;")),
-               "refers to camera 99");
-  expect_error(
-      ReadDefault(broken_copy("keypoints", "UPDATE keypoints SET cols = 3;")),
-      "is corrupt");
-  expect_error(
-      ReadDefault(broken_copy("no_table", "DROP TABLE two_view_geometries;")),
-      "is not a COLMAP database (no table two_view_geometries)");
+  for (const auto& damage : damages) {
+    SCOPED_TRACE(damage.name);
+    expect_error(ReadStatus(DamagedCopy("errors_" + damage.name, damage.sql)),
+                 damage.error);
+  }
 }
 
 // Keypoints with NaN or infinite coordinates keep their index (so that the
@@ -596,11 +602,8 @@ TEST(DatabaseReader, NonFiniteKeypointsAndTheirMatchesAreDropped) {
   ExecuteSqlWithBlob(path, "UPDATE keypoints SET data = ?1 WHERE image_id = 4;",
                      keypoints4.data(), keypoints4.size() * sizeof(float));
 
-  colmap::Reconstruction reconstruction;
-  ViewGraph view_graph;
-  Status status;
-  const std::string log =
-      ReadAndCaptureLog(path, &reconstruction, &view_graph, &status);
+  const auto& [reconstruction, view_graph, status, log] =
+      ReadAndCaptureLog(path);
   ASSERT_TRUE(status.ok()) << status.message();
 
   // (1,2) matches keypoint i of image 1 to i+1 of image 2, (1,3) keypoint
@@ -629,23 +632,20 @@ TEST(DatabaseReader, NonFiniteKeypointsAndTheirMatchesAreDropped) {
   EXPECT_EQ(reconstruction.Image(1).Point2D(7).XY(), Eigen::Vector2d(7, 3.5));
 
   EXPECT_EQ(CountOccurrences(log, "non-finite coordinates"), 2) << log;
-  EXPECT_NE(log.find("Image img1.jpg in " + path +
-                     " has non-finite coordinates (NaN or infinite) in 2 of "
-                     "30 keypoints: they are not used, nor the 4 verified "
-                     "matches that use them."),
-            std::string::npos)
-      << log;
-  EXPECT_NE(log.find("Image img4.jpg in " + path +
-                     " has non-finite coordinates (NaN or infinite) in 20 of "
-                     "20 keypoints: they are not used, nor the 20 verified "
-                     "matches that use them."),
-            std::string::npos)
-      << log;
-  EXPECT_NE(log.find("Ignored 1 verified pair in " + path +
-                     " left with fewer than 15 usable matches (e.g. images "
-                     "img2.jpg and img4.jpg)."),
-            std::string::npos)
-      << log;
+  EXPECT_TRUE(
+      LogHas(log, "Image img1.jpg in " + path +
+                      " has non-finite coordinates (NaN or infinite) in 2 of "
+                      "30 keypoints: they are not used, nor the 4 verified "
+                      "matches that use them."));
+  EXPECT_TRUE(
+      LogHas(log, "Image img4.jpg in " + path +
+                      " has non-finite coordinates (NaN or infinite) in 20 of "
+                      "20 keypoints: they are not used, nor the 20 verified "
+                      "matches that use them."));
+  EXPECT_TRUE(
+      LogHas(log, "Ignored 1 verified pair in " + path +
+                      " left with fewer than 15 usable matches (e.g. images "
+                      "img2.jpg and img4.jpg)."));
 }
 
 // A camera whose values no camera has leaves its images out, as COLMAP's
@@ -674,25 +674,17 @@ TEST(DatabaseReader, UnusableCameraLeavesItsImagesOut) {
   };
   for (const auto& c : cases) {
     const std::string path = DamagedCopy("camera_" + c.name);
-    ExecuteSqlWithBlob(path,
-                       "UPDATE cameras SET params = ?1 WHERE camera_id = 2;",
-                       c.params.data(), c.params.size() * sizeof(double));
-    colmap::Reconstruction reconstruction;
-    ViewGraph view_graph;
-    Status status;
-    const std::string log =
-        ReadAndCaptureLog(path, &reconstruction, &view_graph, &status);
+    SetCameraParams(path, 2, c.params);
+    const auto& [reconstruction, view_graph, status, log] =
+        ReadAndCaptureLog(path);
     ASSERT_TRUE(status.ok()) << c.name << ": " << status.message();
     EXPECT_EQ(reconstruction.NumImages(), 3) << c.name;
     EXPECT_FALSE(reconstruction.ExistsImage(2)) << c.name;
     EXPECT_FALSE(reconstruction.ExistsCamera(2)) << c.name;
     ASSERT_EQ(view_graph.NumPairs(), 1) << c.name;
     EXPECT_EQ(view_graph.Pairs().begin()->first, PairId(1, 3)) << c.name;
-    EXPECT_NE(log.find("Camera 2 in " + path + " " + c.problem),
-              std::string::npos)
-        << c.name << ": " << log;
-    EXPECT_NE(log.find("its 1 image is left out."), std::string::npos)
-        << c.name << ": " << log;
+    EXPECT_TRUE(LogHas(log, "Camera 2 in " + path + " " + c.problem)) << c.name;
+    EXPECT_TRUE(LogHas(log, "its 1 image is left out.")) << c.name;
     EXPECT_EQ(CountOccurrences(log, "Camera 2"), 1) << c.name << ": " << log;
     // Pairs with a left-out image are no damage of their own.
     EXPECT_EQ(log.find("do not name two images"), std::string::npos) << log;
@@ -702,14 +694,9 @@ TEST(DatabaseReader, UnusableCameraLeavesItsImagesOut) {
   {
     const std::string path = DamagedCopy("camera_unused");
     const std::vector<double> params(8, nan);
-    ExecuteSqlWithBlob(path,
-                       "UPDATE cameras SET params = ?1 WHERE camera_id = 3;",
-                       params.data(), params.size() * sizeof(double));
-    colmap::Reconstruction reconstruction;
-    ViewGraph view_graph;
-    Status status;
-    const std::string log =
-        ReadAndCaptureLog(path, &reconstruction, &view_graph, &status);
+    SetCameraParams(path, 3, params);
+    const auto& [reconstruction, view_graph, status, log] =
+        ReadAndCaptureLog(path);
     ASSERT_TRUE(status.ok()) << status.message();
     EXPECT_EQ(reconstruction.NumImages(), 4);
     EXPECT_EQ(log.find("Camera 3"), std::string::npos) << log;
@@ -718,10 +705,8 @@ TEST(DatabaseReader, UnusableCameraLeavesItsImagesOut) {
   // Camera 1 has three of the four images: one image is too few.
   const std::vector<double> bad_camera1 = {-800, 320, 240, -0.01};
   const std::string one_left_path = DamagedCopy("camera_one_left");
-  ExecuteSqlWithBlob(one_left_path,
-                     "UPDATE cameras SET params = ?1 WHERE camera_id = 1;",
-                     bad_camera1.data(), bad_camera1.size() * sizeof(double));
-  Status status = ReadDefault(one_left_path);
+  SetCameraParams(one_left_path, 1, bad_camera1);
+  Status status = ReadStatus(one_left_path);
   EXPECT_EQ(status.message(),
             "Only one image of " + one_left_path +
                 " can be used (img2.jpg): a reconstruction needs at least two "
@@ -730,10 +715,8 @@ TEST(DatabaseReader, UnusableCameraLeavesItsImagesOut) {
 
   // No usable camera at all: the error names one.
   const std::vector<double> bad_camera2 = {1000, 1000, 400, nan};
-  ExecuteSqlWithBlob(one_left_path,
-                     "UPDATE cameras SET params = ?1 WHERE camera_id = 2;",
-                     bad_camera2.data(), bad_camera2.size() * sizeof(double));
-  status = ReadDefault(one_left_path);
+  SetCameraParams(one_left_path, 2, bad_camera2);
+  status = ReadStatus(one_left_path);
   EXPECT_EQ(status.message(),
             "No image of " + one_left_path +
                 " can be used: camera 1 has the focal length -800 px, which "
@@ -748,31 +731,22 @@ TEST(DatabaseReader, RepeatedRowsUseTheFirst) {
   const std::string pair12 = std::to_string(PairId(1, 2));
   const std::string path = DamagedCopy(
       "repeated_rows",
-      "CREATE TABLE keypoints_copy AS SELECT * FROM keypoints;"
-      "DROP TABLE keypoints;"
-      "ALTER TABLE keypoints_copy RENAME TO keypoints;"
-      "INSERT INTO keypoints SELECT * FROM keypoints WHERE image_id = 2;"
-      "INSERT INTO keypoints VALUES (1, 3, 2, zeroblob(24));"
-      "INSERT INTO keypoints VALUES (1, 1, 2, zeroblob(8));"
-      "CREATE TABLE images_copy AS SELECT * FROM images;"
-      "DROP TABLE images;"
-      "ALTER TABLE images_copy RENAME TO images;"
-      "INSERT INTO images (image_id, name, camera_id) "
-      "VALUES (3, 'again3.jpg', 2);"
-      "CREATE TABLE geometries_copy AS SELECT * FROM two_view_geometries;"
-      "DROP TABLE two_view_geometries;"
-      "ALTER TABLE geometries_copy RENAME TO two_view_geometries;"
-      "INSERT INTO two_view_geometries SELECT * FROM two_view_geometries "
-      "WHERE pair_id = " +
+      DropPrimaryKey("keypoints") +
+          "INSERT INTO keypoints SELECT * FROM keypoints WHERE image_id = 2;"
+          "INSERT INTO keypoints VALUES (1, 3, 2, zeroblob(24));"
+          "INSERT INTO keypoints VALUES (1, 1, 2, zeroblob(8));" +
+          DropPrimaryKey("images") +
+          "INSERT INTO images (image_id, name, camera_id) "
+          "VALUES (3, 'again3.jpg', 2);" +
+          DropPrimaryKey("two_view_geometries") +
+          "INSERT INTO two_view_geometries SELECT * FROM two_view_geometries "
+          "WHERE pair_id = " +
           pair12 +
           ";"
           "UPDATE two_view_geometries SET config = 4 "
           "WHERE rowid = last_insert_rowid();");
-  colmap::Reconstruction reconstruction;
-  ViewGraph view_graph;
-  Status status;
-  const std::string log =
-      ReadAndCaptureLog(path, &reconstruction, &view_graph, &status);
+  const auto& [reconstruction, view_graph, status, log] =
+      ReadAndCaptureLog(path);
   ASSERT_TRUE(status.ok()) << status.message();
   ASSERT_EQ(reconstruction.NumImages(), 4);
   EXPECT_EQ(reconstruction.Image(1).NumPoints2D(), 30);
@@ -782,24 +756,18 @@ TEST(DatabaseReader, RepeatedRowsUseTheFirst) {
   EXPECT_EQ(view_graph.NumPairs(), 4);
   EXPECT_EQ(view_graph.Pairs().at(PairId(1, 2)).config,
             TwoViewGeometry::CALIBRATED);
-  EXPECT_NE(log.find("Image img1.jpg has 3 keypoint rows in " + path +
-                     "; the first is used, as COLMAP does, and 2 later rows "
-                     "ignored."),
-            std::string::npos)
-      << log;
-  EXPECT_NE(log.find("Image img2.jpg has 2 keypoint rows in " + path +
-                     "; the first is used, as COLMAP does, and 1 later row "
-                     "ignored."),
-            std::string::npos)
-      << log;
-  EXPECT_NE(log.find("Ignored 1 row of the images table of " + path +
-                     " that repeat an image id"),
-            std::string::npos)
-      << log;
-  EXPECT_NE(log.find("Ignored 1 repeated row of two_view_geometries in " +
-                     path + " (e.g. images img1.jpg and img2.jpg)"),
-            std::string::npos)
-      << log;
+  EXPECT_TRUE(
+      LogHas(log, "Image img1.jpg has 3 keypoint rows in " + path +
+                      "; the first is used, as COLMAP does, and 2 later rows "
+                      "ignored."));
+  EXPECT_TRUE(
+      LogHas(log, "Image img2.jpg has 2 keypoint rows in " + path +
+                      "; the first is used, as COLMAP does, and 1 later row "
+                      "ignored."));
+  EXPECT_TRUE(LogHas(log, "Ignored 1 row of the images table of " + path +
+                              " that repeat an image id"));
+  EXPECT_TRUE(LogHas(log, "Ignored 1 repeated row of two_view_geometries in " +
+                              path + " (e.g. images img1.jpg and img2.jpg)"));
 }
 
 // Pairs that name no two images of the database and configs that COLMAP
@@ -831,11 +799,8 @@ TEST(DatabaseReader, UnknownImagesAndUnusableGeometries) {
                          std::to_string(PairId(2, 4)) + ";",
                      nonfinite_h.data(), 9 * sizeof(double));
 
-  colmap::Reconstruction reconstruction;
-  ViewGraph view_graph;
-  Status status;
-  const std::string log =
-      ReadAndCaptureLog(path, &reconstruction, &view_graph, &status);
+  const auto& [reconstruction, view_graph, status, log] =
+      ReadAndCaptureLog(path);
   ASSERT_TRUE(status.ok()) << status.message();
   const auto& pairs = view_graph.Pairs();
   ASSERT_EQ(pairs.size(), 3);
@@ -849,31 +814,27 @@ TEST(DatabaseReader, UnknownImagesAndUnusableGeometries) {
   EXPECT_EQ(pairs.at(PairId(2, 4)).matches.size(), 20);
   EXPECT_EQ(pairs.count(PairId(2, 3)), 1);
 
-  EXPECT_NE(log.find("Ignored 2 verified pairs in " + path +
-                     " that do not name two images of the database (e.g. "
-                     "pair id " +
-                     std::to_string(PairId(1, 99)) + ": image ids 1 and 99)."),
-            std::string::npos)
-      << log;
-  EXPECT_NE(log.find("Ignored 1 verified pair in " + path +
-                     " whose config is not a COLMAP two-view geometry type "
-                     "(0 to 8; e.g. images img1.jpg and img3.jpg: config "
-                     "42)."),
-            std::string::npos)
-      << log;
-  EXPECT_NE(
-      log.find("Ignored the stored F, E or H of 2 verified pairs in " + path +
+  EXPECT_TRUE(LogHas(
+      log, "Ignored 2 verified pairs in " + path +
+               " that do not name two images of the database (e.g. "
+               "pair id " +
+               std::to_string(PairId(1, 99)) + ": image ids 1 and 99)."));
+  EXPECT_TRUE(
+      LogHas(log, "Ignored 1 verified pair in " + path +
+                      " whose config is not a COLMAP two-view geometry type "
+                      "(0 to 8; e.g. images img1.jpg and img3.jpg: config "
+                      "42)."));
+  EXPECT_TRUE(LogHas(
+      log, "Ignored the stored F, E or H of 2 verified pairs in " + path +
                " (NULL, empty or not finite; e.g. images img1.jpg and "
-               "img2.jpg): their inlier matches are used"),
-      std::string::npos)
-      << log;
+               "img2.jpg): their inlier matches are used"));
 }
 
 // A run with too little left fails with an error that says why.
 TEST(DatabaseReader, NothingUsableLeftIsAnError) {
   const std::string path = DamagedCopy(
       "nothing_left", "UPDATE two_view_geometries SET config = 42;");
-  const Status status = ReadDefault(path);
+  const Status status = ReadStatus(path);
   EXPECT_FALSE(status.ok());
   EXPECT_EQ(status.message(),
             "The database " + path +
@@ -890,10 +851,7 @@ TEST(DatabaseReader, RealDatabaseStaysUnchanged) {
   const std::string digest = testing::FileDigest(path);
   const auto mtime = std::filesystem::last_write_time(path);
 
-  colmap::Reconstruction reconstruction;
-  ViewGraph view_graph;
-  const Status status =
-      Read(path, DatabaseReaderOptions(), &reconstruction, &view_graph);
+  const auto& [reconstruction, view_graph, status, log] = Read(path);
   ASSERT_TRUE(status.ok()) << status.message();
   EXPECT_EQ(reconstruction.NumImages(), 11);
   EXPECT_GT(view_graph.NumPairs(), 0);

@@ -11,6 +11,7 @@
 #include <regex>
 #include <sstream>
 
+#include "tests/support/camera_rotation.h"
 #include "tests/support/test_paths.h"
 
 namespace glomap {
@@ -22,18 +23,6 @@ constexpr double kDegToRad = M_PI / 180.0;
 Eigen::Vector4d ToQvec(const Eigen::Matrix3d& rotation) {
   const Eigen::Quaterniond q(rotation);
   return Eigen::Vector4d(q.w(), q.x(), q.y(), q.z());
-}
-
-// A camera at `center` looking at the origin (world-to-camera rotation).
-Eigen::Matrix3d LookAtOrigin(const Eigen::Vector3d& center) {
-  const Eigen::Vector3d z = (-center).normalized();
-  const Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ()).normalized();
-  const Eigen::Vector3d y = z.cross(x);
-  Eigen::Matrix3d rotation;
-  rotation.row(0) = x;
-  rotation.row(1) = y;
-  rotation.row(2) = z;
-  return rotation;
 }
 
 void AddPose(colmap::Reconstruction* model, colmap::image_t image_id,
@@ -62,7 +51,8 @@ colmap::Reconstruction MakeRing(int n) {
     const double angle = 2.0 * M_PI * i / n;
     const Eigen::Vector3d center(5.0 * std::cos(angle), 5.0 * std::sin(angle),
                                  0.5 * std::sin(3.0 * angle));
-    AddPose(&model, i + 1, LookAtOrigin(center), center);
+    // Looking at the origin.
+    AddPose(&model, i + 1, testing::CamFromWorldLookingAlong(-center), center);
   }
   return model;
 }

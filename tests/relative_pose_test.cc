@@ -118,15 +118,37 @@ TruePair AddTwoViewScene(const SceneSpec& spec, colmap::camera_t camera_id,
   return truth;
 }
 
-void AddCamera(colmap::camera_t camera_id, const std::string& model,
-               colmap::Reconstruction* reconstruction) {
-  colmap::Camera camera;
-  camera.SetCameraId(camera_id);
-  camera.InitializeWithName(model, 1000, kWidth, kHeight);
-  if (model == "SIMPLE_RADIAL") {
-    camera.Params(3) = -0.08;
+// Pairs of images on one camera (id 1) of `camera_model`, each pair seeing a
+// scene of its own drawn from `rng`.
+struct TwoViewScenes {
+  TwoViewScenes(unsigned seed, const std::string& camera_model) : rng(seed) {
+    colmap::Camera camera;
+    camera.SetCameraId(1);
+    camera.InitializeWithName(camera_model, 1000, kWidth, kHeight);
+    if (camera_model == "SIMPLE_RADIAL") {
+      camera.Params(3) = -0.08;
+    }
+    reconstruction.AddCamera(camera);
   }
-  reconstruction->AddCamera(camera);
+
+  // Adds a pair seeing a scene as `spec` says; returns its ground truth.
+  TruePair Add(const SceneSpec& spec) {
+    return AddTwoViewScene(spec, 1, &rng, &reconstruction, &view_graph);
+  }
+
+  std::mt19937 rng;
+  colmap::Reconstruction reconstruction;
+  ViewGraph view_graph;
+};
+
+// Forward and sideways motion turning by up to `max_angle_deg`, but no
+// camera behind the other.
+SceneSpec RandomMotion(double max_angle_deg, std::mt19937* rng) {
+  SceneSpec spec;
+  spec.R = RandomRotation(max_angle_deg, rng);
+  spec.t = RandomUnitVector(rng);
+  spec.t(2) = std::abs(spec.t(2));
+  return spec;
 }
 
 double RotationErrorDeg(const Eigen::Vector4d& qvec,
@@ -169,82 +191,67 @@ void ExpectAccuratePair(const ImagePair& pair, const TruePair& truth) {
   EXPECT_LT(score.outlier_accepted, 0.05);
 }
 
-TEST(RelativePose, CalibratedPairsWithOutliers) {
-  std::mt19937 rng(1);
-  colmap::Reconstruction reconstruction;
-  AddCamera(1, "PINHOLE", &reconstruction);
-  ViewGraph view_graph;
-  std::vector<TruePair> truths;
-  for (int i = 0; i < 6; ++i) {
-    SceneSpec spec;
-    spec.R = RandomRotation(20, &rng);
-    spec.t = RandomUnitVector(&rng);
-    // Forward and sideways motion, but no camera behind the other.
-    spec.t(2) = std::abs(spec.t(2));
-    truths.push_back(
-        AddTwoViewScene(spec, 1, &rng, &reconstruction, &view_graph));
-  }
-  size_t num_invalidated = 99;
-  const Status status = EstimateRelativePoses(
-      RelativePoseOptions(), reconstruction, &view_graph, &num_invalidated);
-  ASSERT_TRUE(status.ok()) << status.message();
-  EXPECT_EQ(num_invalidated, 0);
+void ExpectAccuratePairs(const ViewGraph& view_graph,
+                         const std::vector<TruePair>& truths) {
   for (const TruePair& truth : truths) {
     SCOPED_TRACE(truth.pair_id);
     ExpectAccuratePair(view_graph.Pairs().at(truth.pair_id), truth);
   }
+}
+
+TEST(RelativePose, CalibratedPairsWithOutliers) {
+  TwoViewScenes scenes(/*seed=*/1, "PINHOLE");
+  std::vector<TruePair> truths;
+  for (int i = 0; i < 6; ++i) {
+    truths.push_back(scenes.Add(RandomMotion(20, &scenes.rng)));
+  }
+  size_t num_invalidated = 99;
+  const Status status =
+      EstimateRelativePoses(RelativePoseOptions(), scenes.reconstruction,
+                            &scenes.view_graph, &num_invalidated);
+  ASSERT_TRUE(status.ok()) << status.message();
+  EXPECT_EQ(num_invalidated, 0);
+  ExpectAccuratePairs(scenes.view_graph, truths);
 }
 
 TEST(RelativePose, UncalibratedDistortedPairs) {
-  std::mt19937 rng(2);
-  colmap::Reconstruction reconstruction;
-  AddCamera(1, "SIMPLE_RADIAL", &reconstruction);
-  ViewGraph view_graph;
+  TwoViewScenes scenes(/*seed=*/2, "SIMPLE_RADIAL");
   std::vector<TruePair> truths;
   for (int i = 0; i < 4; ++i) {
     SceneSpec spec;
-    spec.R = RandomRotation(15, &rng);
+    spec.R = RandomRotation(15, &scenes.rng);
     spec.t = Eigen::Vector3d(1, 0.2 * i - 0.3, 0.3);
     spec.config = TwoViewGeometry::UNCALIBRATED;
     spec.noise_px = 0.8;  // The UNCALIBRATED threshold is 4 px.
-    truths.push_back(
-        AddTwoViewScene(spec, 1, &rng, &reconstruction, &view_graph));
+    truths.push_back(scenes.Add(spec));
   }
-  ASSERT_TRUE(
-      EstimateRelativePoses(RelativePoseOptions(), reconstruction, &view_graph)
-          .ok());
-  for (const TruePair& truth : truths) {
-    SCOPED_TRACE(truth.pair_id);
-    ExpectAccuratePair(view_graph.Pairs().at(truth.pair_id), truth);
-  }
+  ASSERT_TRUE(EstimateRelativePoses(RelativePoseOptions(),
+                                    scenes.reconstruction, &scenes.view_graph)
+                  .ok());
+  ExpectAccuratePairs(scenes.view_graph, truths);
 }
 
 TEST(RelativePose, InvalidatesPairsWithTooFewInliers) {
-  std::mt19937 rng(3);
-  colmap::Reconstruction reconstruction;
-  AddCamera(1, "PINHOLE", &reconstruction);
-  ViewGraph view_graph;
+  TwoViewScenes scenes(/*seed=*/3, "PINHOLE");
   SceneSpec few;
   few.num_matches = 20;
   few.outlier_ratio = 0;
-  const TruePair too_few =
-      AddTwoViewScene(few, 1, &rng, &reconstruction, &view_graph);
+  const TruePair too_few = scenes.Add(few);
   SceneSpec normal;
   normal.outlier_ratio = 0;
-  const TruePair low_ratio =
-      AddTwoViewScene(normal, 1, &rng, &reconstruction, &view_graph);
+  const TruePair low_ratio = scenes.Add(normal);
   // Most of the raw matches did not survive verification.
+  ViewGraph& view_graph = scenes.view_graph;
   view_graph.Pairs().at(low_ratio.pair_id).num_raw_matches = 5000;
   SceneSpec garbage;
   garbage.outlier_ratio = 1.0;
-  const TruePair all_outliers =
-      AddTwoViewScene(garbage, 1, &rng, &reconstruction, &view_graph);
-  const TruePair good =
-      AddTwoViewScene(normal, 1, &rng, &reconstruction, &view_graph);
+  const TruePair all_outliers = scenes.Add(garbage);
+  const TruePair good = scenes.Add(normal);
 
   size_t num_invalidated = 0;
-  ASSERT_TRUE(EstimateRelativePoses(RelativePoseOptions(), reconstruction,
-                                    &view_graph, &num_invalidated)
+  ASSERT_TRUE(EstimateRelativePoses(RelativePoseOptions(),
+                                    scenes.reconstruction, &view_graph,
+                                    &num_invalidated)
                   .ok());
   EXPECT_FALSE(view_graph.Pairs().at(too_few.pair_id).is_valid);
   EXPECT_FALSE(view_graph.Pairs().at(low_ratio.pair_id).is_valid);
@@ -255,27 +262,23 @@ TEST(RelativePose, InvalidatesPairsWithTooFewInliers) {
   RelativePoseOptions bad_options;
   bad_options.min_inlier_ratio = 2;
   EXPECT_FALSE(
-      EstimateRelativePoses(bad_options, reconstruction, &view_graph).ok());
+      EstimateRelativePoses(bad_options, scenes.reconstruction, &view_graph)
+          .ok());
 }
 
 TEST(RelativePose, DeterministicAcrossRunsAndThreads) {
-  std::mt19937 rng(4);
-  colmap::Reconstruction reconstruction;
-  AddCamera(1, "PINHOLE", &reconstruction);
-  ViewGraph view_graph;
+  TwoViewScenes scenes(/*seed=*/4, "PINHOLE");
   for (int i = 0; i < 12; ++i) {
-    SceneSpec spec;
-    spec.R = RandomRotation(20, &rng);
-    spec.t = RandomUnitVector(&rng);
-    spec.t(2) = std::abs(spec.t(2));
+    SceneSpec spec = RandomMotion(20, &scenes.rng);
     spec.outlier_ratio = 0.5;
-    AddTwoViewScene(spec, 1, &rng, &reconstruction, &view_graph);
+    scenes.Add(spec);
   }
   auto run = [&](int num_threads) {
-    ViewGraph copy = view_graph;
+    ViewGraph copy = scenes.view_graph;
     RelativePoseOptions options;
     options.num_threads = num_threads;
-    EXPECT_TRUE(EstimateRelativePoses(options, reconstruction, &copy).ok());
+    EXPECT_TRUE(
+        EstimateRelativePoses(options, scenes.reconstruction, &copy).ok());
     return copy;
   };
   const ViewGraph first = run(2);
@@ -292,31 +295,26 @@ TEST(RelativePose, DeterministicAcrossRunsAndThreads) {
 }
 
 TEST(RelativePose, PureRotationAndPlanarPairsDoNotCrash) {
-  std::mt19937 rng(5);
-  colmap::Reconstruction reconstruction;
-  AddCamera(1, "PINHOLE", &reconstruction);
-  ViewGraph view_graph;
+  TwoViewScenes scenes(/*seed=*/5, "PINHOLE");
   SceneSpec rotation;
-  rotation.R = RandomRotation(15, &rng);
+  rotation.R = RandomRotation(15, &scenes.rng);
   rotation.t = Eigen::Vector3d::Zero();
   rotation.config = TwoViewGeometry::PANORAMIC;
-  const TruePair panoramic =
-      AddTwoViewScene(rotation, 1, &rng, &reconstruction, &view_graph);
+  const TruePair panoramic = scenes.Add(rotation);
   // The same pure rotation labelled CALIBRATED (a matcher may do that).
   rotation.config = TwoViewGeometry::CALIBRATED;
-  const TruePair rotation_as_calibrated =
-      AddTwoViewScene(rotation, 1, &rng, &reconstruction, &view_graph);
+  const TruePair rotation_as_calibrated = scenes.Add(rotation);
   SceneSpec plane;
-  plane.R = RandomRotation(15, &rng);
+  plane.R = RandomRotation(15, &scenes.rng);
   plane.t = Eigen::Vector3d(1, 0.1, 0.2);
   plane.planar = true;
   plane.config = TwoViewGeometry::PLANAR;
-  const TruePair planar =
-      AddTwoViewScene(plane, 1, &rng, &reconstruction, &view_graph);
+  const TruePair planar = scenes.Add(plane);
 
-  ASSERT_TRUE(
-      EstimateRelativePoses(RelativePoseOptions(), reconstruction, &view_graph)
-          .ok());
+  const ViewGraph& view_graph = scenes.view_graph;
+  ASSERT_TRUE(EstimateRelativePoses(RelativePoseOptions(),
+                                    scenes.reconstruction, &scenes.view_graph)
+                  .ok());
   for (const TruePair* truth : {&panoramic, &rotation_as_calibrated, &planar}) {
     const ImagePair& pair = view_graph.Pairs().at(truth->pair_id);
     if (pair.has_relative_pose) {
@@ -346,30 +344,24 @@ TEST(RelativePose, PureRotationAndPlanarPairsDoNotCrash) {
 // Throughput on verified matches (10% outliers), as in a real database:
 // prints pairs per second, asserts only a generous bound.
 TEST(RelativePose, Throughput) {
-  std::mt19937 rng(6);
-  colmap::Reconstruction reconstruction;
-  AddCamera(1, "SIMPLE_RADIAL", &reconstruction);
-  ViewGraph view_graph;
+  TwoViewScenes scenes(/*seed=*/6, "SIMPLE_RADIAL");
   const int kNumPairs = 100;
   for (int i = 0; i < kNumPairs; ++i) {
-    SceneSpec spec;
-    spec.R = RandomRotation(20, &rng);
-    spec.t = RandomUnitVector(&rng);
-    spec.t(2) = std::abs(spec.t(2));
+    SceneSpec spec = RandomMotion(20, &scenes.rng);
     spec.num_matches = 1000;
     spec.outlier_ratio = 0.1;
-    AddTwoViewScene(spec, 1, &rng, &reconstruction, &view_graph);
+    scenes.Add(spec);
   }
   const auto start = std::chrono::steady_clock::now();
-  ASSERT_TRUE(
-      EstimateRelativePoses(RelativePoseOptions(), reconstruction, &view_graph)
-          .ok());
+  ASSERT_TRUE(EstimateRelativePoses(RelativePoseOptions(),
+                                    scenes.reconstruction, &scenes.view_graph)
+                  .ok());
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
   std::cout << kNumPairs << " pairs x 1000 matches in " << seconds << " s ("
             << kNumPairs / seconds << " pairs/s)" << std::endl;
-  EXPECT_EQ(view_graph.NumValidPairs(), kNumPairs);
+  EXPECT_EQ(scenes.view_graph.NumValidPairs(), kNumPairs);
   EXPECT_LT(seconds, 60);
 }
 

@@ -11,6 +11,7 @@
 #include "base/pose.h"
 #include "base/projection.h"
 #include "base/reconstruction.h"
+#include "tests/support/camera_rotation.h"
 
 namespace glomap {
 namespace {
@@ -57,12 +58,7 @@ Scene MakeScene(int num_images, int num_points, double wrong_match_ratio,
     ring_angles.push_back(angle);
     const Eigen::Vector3d center(6 * std::cos(angle), 6 * std::sin(angle),
                                  0.8 * std::sin(3 * angle));
-    const Eigen::Vector3d z = (-center).normalized();
-    const Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ()).normalized();
-    Eigen::Matrix3d rotation;
-    rotation.row(0) = x;
-    rotation.row(1) = z.cross(x);
-    rotation.row(2) = z;
+    const Eigen::Matrix3d rotation = testing::CamFromWorldLookingAlong(-center);
     colmap::Image image;
     image.SetImageId(image_id);
     image.SetName("image" + std::to_string(image_id));

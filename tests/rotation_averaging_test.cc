@@ -132,6 +132,14 @@ Scene MakeScene(int num_images, int num_pairs, double noise_deg,
   return scene;
 }
 
+// Runs rotation averaging on the scene's view graph and reconstruction.
+Status AverageSceneRotations(
+    Scene* scene, size_t* num_rejected = nullptr,
+    const RotationAveragingOptions& options = RotationAveragingOptions()) {
+  return AverageRotations(options, &scene->view_graph, &scene->reconstruction,
+                          num_rejected);
+}
+
 // Gauge-free accuracy: the angle between estimated and true relative
 // rotations over every pair of registered images.
 struct ErrorStats {
@@ -165,9 +173,7 @@ ErrorStats PairwiseErrors(const Scene& scene) {
 TEST(RotationAveraging, ExactDataIsRecovered) {
   Scene scene = MakeScene(50, 300, 0.0, 0.0, 1);
   size_t num_rejected = 123;
-  const Status status =
-      AverageRotations(RotationAveragingOptions(), &scene.view_graph,
-                       &scene.reconstruction, &num_rejected);
+  const Status status = AverageSceneRotations(&scene, &num_rejected);
   ASSERT_TRUE(status.ok()) << status.message();
   EXPECT_EQ(num_rejected, 0);
   EXPECT_EQ(scene.reconstruction.NumRegImages(), 50);
@@ -190,9 +196,7 @@ TEST(RotationAveraging, ExactDataIsRecovered) {
 TEST(RotationAveraging, NoiseAndGrossOutliers) {
   Scene scene = MakeScene(200, 3000, 1.0, 0.2, 2);
   size_t num_rejected = 0;
-  const Status status =
-      AverageRotations(RotationAveragingOptions(), &scene.view_graph,
-                       &scene.reconstruction, &num_rejected);
+  const Status status = AverageSceneRotations(&scene, &num_rejected);
   ASSERT_TRUE(status.ok()) << status.message();
   EXPECT_EQ(scene.reconstruction.NumRegImages(), 200);
   const ErrorStats errors = PairwiseErrors(scene);
@@ -231,7 +235,7 @@ TEST(RotationAveraging, SpanningTreeOfOutliers) {
     RotationAveragingOptions options;
     options.use_triangle_support_in_tree = use_triangle_support;
     const Status status =
-        AverageRotations(options, &scene.view_graph, &scene.reconstruction);
+        AverageSceneRotations(&scene, /*num_rejected=*/nullptr, options);
     ASSERT_TRUE(status.ok()) << status.message();
     EXPECT_EQ(scene.reconstruction.NumRegImages(), 100);
     const ErrorStats errors = PairwiseErrors(scene);
@@ -271,8 +275,7 @@ TEST(RotationAveraging, ConsistentWrongRotations) {
           &scene);
     }
   }
-  const Status status = AverageRotations(
-      RotationAveragingOptions(), &scene.view_graph, &scene.reconstruction);
+  const Status status = AverageSceneRotations(&scene);
   ASSERT_TRUE(status.ok()) << status.message();
   EXPECT_EQ(scene.reconstruction.NumRegImages(), 60);
   EXPECT_LT(PairwiseErrors(scene).mean_deg, 0.5);
@@ -296,9 +299,7 @@ TEST(RotationAveraging, OnlyLargestComponentIsRegistered) {
   scene.view_graph.AddPair(no_pose);
 
   size_t num_rejected = 0;
-  const Status status =
-      AverageRotations(RotationAveragingOptions(), &scene.view_graph,
-                       &scene.reconstruction, &num_rejected);
+  const Status status = AverageSceneRotations(&scene, &num_rejected);
   ASSERT_TRUE(status.ok()) << status.message();
   EXPECT_EQ(scene.reconstruction.NumRegImages(), 30);
   for (colmap::image_t id = 3; id <= 55; ++id) {
@@ -314,12 +315,8 @@ TEST(RotationAveraging, OnlyLargestComponentIsRegistered) {
 TEST(RotationAveraging, Deterministic) {
   Scene scene1 = MakeScene(80, 800, 1.0, 0.2, 6);
   Scene scene2 = MakeScene(80, 800, 1.0, 0.2, 6);
-  ASSERT_TRUE(AverageRotations(RotationAveragingOptions(), &scene1.view_graph,
-                               &scene1.reconstruction)
-                  .ok());
-  ASSERT_TRUE(AverageRotations(RotationAveragingOptions(), &scene2.view_graph,
-                               &scene2.reconstruction)
-                  .ok());
+  ASSERT_TRUE(AverageSceneRotations(&scene1).ok());
+  ASSERT_TRUE(AverageSceneRotations(&scene2).ok());
   for (const auto& [image_id, image] : scene1.reconstruction.Images()) {
     EXPECT_EQ(image.Qvec(), scene2.reconstruction.Image(image_id).Qvec());
   }
@@ -333,16 +330,12 @@ TEST(RotationAveraging, ErrorsAreReportedAsStatus) {
     Scene scene;  // No pairs at all.
     std::mt19937 rng(7);
     AddImages(3, &rng, &scene);
-    EXPECT_FALSE(AverageRotations(RotationAveragingOptions(), &scene.view_graph,
-                                  &scene.reconstruction)
-                     .ok());
+    EXPECT_FALSE(AverageSceneRotations(&scene).ok());
   }
   {
     Scene scene = MakeScene(5, 6, 0.0, 0.0, 8);
     AddMeasuredPair(3, 99, Eigen::Quaterniond::Identity(), 50, &scene);
-    EXPECT_FALSE(AverageRotations(RotationAveragingOptions(), &scene.view_graph,
-                                  &scene.reconstruction)
-                     .ok());
+    EXPECT_FALSE(AverageSceneRotations(&scene).ok());
   }
   {
     Scene scene = MakeScene(5, 6, 0.0, 0.0, 9);
@@ -351,15 +344,12 @@ TEST(RotationAveraging, ErrorsAreReportedAsStatus) {
     EXPECT_EQ(options.Check().message(),
               "irls_loss_parameter_sigma_deg must be > 0, is 0");
     EXPECT_FALSE(
-        AverageRotations(options, &scene.view_graph, &scene.reconstruction)
-            .ok());
+        AverageSceneRotations(&scene, /*num_rejected=*/nullptr, options).ok());
   }
   {
     // Two images and one pair is the smallest solvable problem.
     Scene scene = MakeScene(2, 1, 0.0, 0.0, 10);
-    ASSERT_TRUE(AverageRotations(RotationAveragingOptions(), &scene.view_graph,
-                                 &scene.reconstruction)
-                    .ok());
+    ASSERT_TRUE(AverageSceneRotations(&scene).ok());
     EXPECT_LT(PairwiseErrors(scene).max_deg, 1e-6);
   }
 }
@@ -396,7 +386,7 @@ TEST(RotationAveraging, RejectionLeavesAnUnsolvedComponentLargest) {
     options.max_rotation_error_deg = 0.1;
     options.num_rounds = num_rounds;
     const Status status =
-        AverageRotations(options, &scene.view_graph, &scene.reconstruction);
+        AverageSceneRotations(&scene, /*num_rejected=*/nullptr, options);
     ASSERT_TRUE(status.ok()) << status.message();
     // What is left of 3..8 is smaller than 9..13 (the case of the crash) and
     // holds the chain; 9..13 was never solved and stays unregistered.
@@ -419,9 +409,7 @@ TEST(RotationAveraging, Timing2000Images60000Pairs) {
   Scene scene = MakeScene(2000, 60000, 1.0, 0.1, 11);
   const auto start = std::chrono::steady_clock::now();
   size_t num_rejected = 0;
-  const Status status =
-      AverageRotations(RotationAveragingOptions(), &scene.view_graph,
-                       &scene.reconstruction, &num_rejected);
+  const Status status = AverageSceneRotations(&scene, &num_rejected);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
@@ -463,8 +451,7 @@ TEST(RotationAveraging, DISABLED_Timing10000Images300000Pairs) {
     }
   }
   const auto start = std::chrono::steady_clock::now();
-  const Status status = AverageRotations(
-      RotationAveragingOptions(), &scene.view_graph, &scene.reconstruction);
+  const Status status = AverageSceneRotations(&scene);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();

@@ -24,17 +24,18 @@ using colmap::TwoViewGeometry;
 
 struct Scene {
   colmap::Reconstruction ground_truth;
+  SyntheticSceneShapes shapes;
   colmap::Reconstruction reconstruction;  // read back from the database
   ViewGraph view_graph;
   std::string database_path;
 };
 
 void MakeScene(const SyntheticSceneOptions& options, const std::string& name,
-               Scene* scene, SyntheticSceneShapes* shapes = nullptr) {
+               Scene* scene) {
   const std::string dir = testing::CreateTestDir("synthetic_scene_" + name);
   scene->database_path = dir + "/database.db";
-  const Status status = WriteSyntheticScene(options, scene->database_path,
-                                            &scene->ground_truth, shapes);
+  const Status status = WriteSyntheticScene(
+      options, scene->database_path, &scene->ground_truth, &scene->shapes);
   ASSERT_TRUE(status.ok()) << status.message();
   DatabaseReaderOptions reader_options;
   const Status read_status =
@@ -332,20 +333,30 @@ TEST(SyntheticScene, OtherLayouts) {
   }
 }
 
+// Makes the scene of `options` with one thread (`first`), with two
+// (`second`) and with two and random seed 1 (`other_seed`), in the folders
+// `name`_a, _b and _c: the first two must hold the same, the third not.
+void ExpectSameAcrossThreadsNotSeeds(SyntheticSceneOptions options,
+                                     const std::string& name, Scene* first,
+                                     Scene* second, Scene* other_seed) {
+  options.num_threads = 1;
+  MakeScene(options, name + "_a", first);
+  options.num_threads = 2;
+  MakeScene(options, name + "_b", second);
+  options.random_seed = 1;
+  MakeScene(options, name + "_c", other_seed);
+  EXPECT_EQ(ContentDigest(*first), ContentDigest(*second));
+  EXPECT_NE(ContentDigest(*first), ContentDigest(*other_seed));
+}
+
 TEST(SyntheticScene, Deterministic) {
   SyntheticSceneOptions options;
   options.num_images = 12;
   options.wrong_match_ratio = 0.2;
   options.max_pairs_per_image = 4;
-  options.num_threads = 1;
   Scene first, second, other_seed;
-  MakeScene(options, "seed_a", &first);
-  options.num_threads = 2;
-  MakeScene(options, "seed_b", &second);
-  options.random_seed = 1;
-  MakeScene(options, "seed_c", &other_seed);
-  EXPECT_EQ(ContentDigest(first), ContentDigest(second));
-  EXPECT_NE(ContentDigest(first), ContentDigest(other_seed));
+  ExpectSameAcrossThreadsNotSeeds(options, "seed", &first, &second,
+                                  &other_seed);
   EXPECT_EQ(first.ground_truth.NumPoints3D(),
             second.ground_truth.NumPoints3D());
 }
@@ -408,18 +419,17 @@ TEST(SyntheticScene, DefaultOptionsMakeNoFailureShapes) {
   options.num_images = 12;
   options.verification = "ground_truth";
   Scene scene;
-  SyntheticSceneShapes shapes;
-  shapes.weak_group_image_ids = {1};  // must be cleared
-  MakeScene(options, "no_shapes", &scene, &shapes);
-  EXPECT_TRUE(shapes.weak_group_image_ids.empty());
-  EXPECT_TRUE(shapes.weak_group_anchor_image_ids.empty());
-  EXPECT_TRUE(shapes.wrong_rotation_pairs.empty());
-  EXPECT_TRUE(shapes.pure_rotation_image_ids.empty());
-  EXPECT_TRUE(shapes.long_baseline_image_ids.empty());
-  EXPECT_EQ(shapes.weak_bridge_pair.first, 0);
-  EXPECT_TRUE(shapes.prior_positions.empty());
-  EXPECT_TRUE(shapes.prior_outlier_image_ids.empty());
-  EXPECT_TRUE(shapes.prior_missing_image_ids.empty());
+  scene.shapes.weak_group_image_ids = {1};  // must be cleared
+  MakeScene(options, "no_shapes", &scene);
+  EXPECT_TRUE(scene.shapes.weak_group_image_ids.empty());
+  EXPECT_TRUE(scene.shapes.weak_group_anchor_image_ids.empty());
+  EXPECT_TRUE(scene.shapes.wrong_rotation_pairs.empty());
+  EXPECT_TRUE(scene.shapes.pure_rotation_image_ids.empty());
+  EXPECT_TRUE(scene.shapes.long_baseline_image_ids.empty());
+  EXPECT_EQ(scene.shapes.weak_bridge_pair.first, 0);
+  EXPECT_TRUE(scene.shapes.prior_positions.empty());
+  EXPECT_TRUE(scene.shapes.prior_outlier_image_ids.empty());
+  EXPECT_TRUE(scene.shapes.prior_missing_image_ids.empty());
 }
 
 TEST(SyntheticScene, WeakGroup) {
@@ -430,14 +440,13 @@ TEST(SyntheticScene, WeakGroup) {
   options.weak_group_num_anchors = 1;
   options.weak_group_max_matches_to_rest = 30;
   Scene scene;
-  SyntheticSceneShapes shapes;
-  MakeScene(options, "weak_group", &scene, &shapes);
+  MakeScene(options, "weak_group", &scene);
   CheckGroundTruth(options, scene);
-  ASSERT_EQ(shapes.weak_group_image_ids.size(), 2u);
-  ASSERT_EQ(shapes.weak_group_anchor_image_ids.size(), 1u);
-  const colmap::image_t group1 = shapes.weak_group_image_ids[0];
-  const colmap::image_t group2 = shapes.weak_group_image_ids[1];
-  const colmap::image_t anchor = shapes.weak_group_anchor_image_ids[0];
+  ASSERT_EQ(scene.shapes.weak_group_image_ids.size(), 2u);
+  ASSERT_EQ(scene.shapes.weak_group_anchor_image_ids.size(), 1u);
+  const colmap::image_t group1 = scene.shapes.weak_group_image_ids[0];
+  const colmap::image_t group2 = scene.shapes.weak_group_image_ids[1];
+  const colmap::image_t anchor = scene.shapes.weak_group_anchor_image_ids[0];
   const colmap::Reconstruction& gt = scene.ground_truth;
   // Neighbours on the ring (40 images: 9 deg apart), the anchor next to them.
   const double ring_step =
@@ -497,20 +506,22 @@ TEST(SyntheticScene, WrongRotationPairsWithGroundTruthVerification) {
   options.wrong_rotation_angle_deg = 30;
   options.wrong_match_ratio = 0.2;
   Scene scene;
-  SyntheticSceneShapes shapes;
-  MakeScene(options, "wrong_rotation_gt", &scene, &shapes);
+  MakeScene(options, "wrong_rotation_gt", &scene);
   CheckGroundTruth(options, scene);
-  ASSERT_EQ(shapes.wrong_rotation_pairs.size(), 4u);
+  ASSERT_EQ(scene.shapes.wrong_rotation_pairs.size(), 4u);
   size_t num_stored = 0;
-  for (const auto& wrong : shapes.wrong_rotation_pairs) {
+  for (const auto& wrong : scene.shapes.wrong_rotation_pairs) {
     SCOPED_TRACE(std::to_string(wrong.image_id1) + "-" +
                  std::to_string(wrong.image_id2));
     // Between the group and the rest; the turned image is not in the group.
-    EXPECT_NE(Contains(shapes.weak_group_image_ids, wrong.image_id1),
-              Contains(shapes.weak_group_image_ids, wrong.image_id2));
-    EXPECT_FALSE(Contains(shapes.weak_group_image_ids, wrong.turned_image_id));
-    EXPECT_FALSE(Contains(shapes.weak_group_anchor_image_ids, wrong.image_id1));
-    EXPECT_FALSE(Contains(shapes.weak_group_anchor_image_ids, wrong.image_id2));
+    EXPECT_NE(Contains(scene.shapes.weak_group_image_ids, wrong.image_id1),
+              Contains(scene.shapes.weak_group_image_ids, wrong.image_id2));
+    EXPECT_FALSE(
+        Contains(scene.shapes.weak_group_image_ids, wrong.turned_image_id));
+    EXPECT_FALSE(
+        Contains(scene.shapes.weak_group_anchor_image_ids, wrong.image_id1));
+    EXPECT_FALSE(
+        Contains(scene.shapes.weak_group_anchor_image_ids, wrong.image_id2));
     const ImagePair* pair =
         FindPair(scene.view_graph, wrong.image_id1, wrong.image_id2);
     if (wrong.num_matches < 30) continue;  // too little overlap to matter
@@ -543,14 +554,13 @@ TEST(SyntheticScene, WrongRotationPairsWithColmapVerification) {
   options.weak_group_num_anchors = 2;
   options.wrong_rotation_angle_deg = 20;
   Scene scene;
-  SyntheticSceneShapes shapes;
-  MakeScene(options, "wrong_rotation_colmap", &scene, &shapes);
-  ASSERT_EQ(shapes.wrong_rotation_pairs.size(), 2u);
-  for (const auto& wrong : shapes.wrong_rotation_pairs) {
+  MakeScene(options, "wrong_rotation_colmap", &scene);
+  ASSERT_EQ(scene.shapes.wrong_rotation_pairs.size(), 2u);
+  for (const auto& wrong : scene.shapes.wrong_rotation_pairs) {
     SCOPED_TRACE(std::to_string(wrong.image_id1) + "-" +
                  std::to_string(wrong.image_id2));
-    EXPECT_TRUE(
-        Contains(shapes.weak_group_anchor_image_ids, wrong.turned_image_id));
+    EXPECT_TRUE(Contains(scene.shapes.weak_group_anchor_image_ids,
+                         wrong.turned_image_id));
     const ImagePair* pair =
         FindPair(scene.view_graph, wrong.image_id1, wrong.image_id2);
     ASSERT_NE(pair, nullptr);
@@ -573,12 +583,11 @@ TEST(SyntheticScene, PureRotationImages) {
   options.verification = "ground_truth";
   options.num_pure_rotation_images = 2;
   Scene scene;
-  SyntheticSceneShapes shapes;
-  MakeScene(options, "pure_rotation", &scene, &shapes);
+  MakeScene(options, "pure_rotation", &scene);
   CheckGroundTruth(options, scene);
-  ASSERT_EQ(shapes.pure_rotation_image_ids.size(), 2u);
+  ASSERT_EQ(scene.shapes.pure_rotation_image_ids.size(), 2u);
   const colmap::Reconstruction& gt = scene.ground_truth;
-  for (const auto& [moved, partner] : shapes.pure_rotation_image_ids) {
+  for (const auto& [moved, partner] : scene.shapes.pure_rotation_image_ids) {
     EXPECT_NE(moved, partner);
     EXPECT_LT((gt.Image(moved).ProjectionCenter() -
                gt.Image(partner).ProjectionCenter())
@@ -614,11 +623,10 @@ TEST(SyntheticScene, LongBaselineImages) {
   options.num_long_baseline_images = 1;
   options.long_baseline_num_skipped_neighbors = 8;
   Scene scene;
-  SyntheticSceneShapes shapes;
-  MakeScene(options, "long_baseline", &scene, &shapes);
+  MakeScene(options, "long_baseline", &scene);
   CheckGroundTruth(options, scene);
-  ASSERT_EQ(shapes.long_baseline_image_ids.size(), 1u);
-  const colmap::image_t image_id = shapes.long_baseline_image_ids[0];
+  ASSERT_EQ(scene.shapes.long_baseline_image_ids.size(), 1u);
+  const colmap::image_t image_id = scene.shapes.long_baseline_image_ids[0];
   const colmap::Reconstruction& gt = scene.ground_truth;
   const Eigen::Vector3d center = gt.Image(image_id).ProjectionCenter();
   std::vector<std::pair<double, colmap::image_t>> by_distance;
@@ -649,19 +657,18 @@ TEST(SyntheticScene, WeakBridge) {
   options.weak_bridge = true;
   options.weak_bridge_max_matches = 40;
   Scene scene;
-  SyntheticSceneShapes shapes;
-  MakeScene(options, "weak_bridge", &scene, &shapes);
+  MakeScene(options, "weak_bridge", &scene);
   CheckGroundTruth(options, scene);
-  ASSERT_NE(shapes.weak_bridge_pair.first, 0);
-  EXPECT_EQ(shapes.weak_bridge_half_image_ids.size(), 20u);
-  EXPECT_TRUE(Contains(shapes.weak_bridge_half_image_ids,
-                       shapes.weak_bridge_pair.first));
-  EXPECT_FALSE(Contains(shapes.weak_bridge_half_image_ids,
-                        shapes.weak_bridge_pair.second));
+  ASSERT_NE(scene.shapes.weak_bridge_pair.first, 0);
+  EXPECT_EQ(scene.shapes.weak_bridge_half_image_ids.size(), 20u);
+  EXPECT_TRUE(Contains(scene.shapes.weak_bridge_half_image_ids,
+                       scene.shapes.weak_bridge_pair.first));
+  EXPECT_FALSE(Contains(scene.shapes.weak_bridge_half_image_ids,
+                        scene.shapes.weak_bridge_pair.second));
   size_t num_crossing = 0;
   for (const auto& [pair_id, pair] : scene.view_graph.Pairs()) {
-    if (Contains(shapes.weak_bridge_half_image_ids, pair.image_id1) ==
-        Contains(shapes.weak_bridge_half_image_ids, pair.image_id2)) {
+    if (Contains(scene.shapes.weak_bridge_half_image_ids, pair.image_id1) ==
+        Contains(scene.shapes.weak_bridge_half_image_ids, pair.image_id2)) {
       continue;
     }
     ++num_crossing;
@@ -682,32 +689,25 @@ TEST(SyntheticScene, FailureShapesAreDeterministic) {
   options.num_pure_rotation_images = 1;
   options.num_long_baseline_images = 1;
   options.weak_bridge = true;
-  options.num_threads = 1;
   Scene first, second, other_seed;
-  SyntheticSceneShapes first_shapes, second_shapes, other_shapes;
-  MakeScene(options, "shapes_a", &first, &first_shapes);
-  options.num_threads = 2;
-  MakeScene(options, "shapes_b", &second, &second_shapes);
-  options.random_seed = 1;
-  MakeScene(options, "shapes_c", &other_seed, &other_shapes);
-  EXPECT_EQ(ContentDigest(first), ContentDigest(second));
-  EXPECT_NE(ContentDigest(first), ContentDigest(other_seed));
-  EXPECT_EQ(first_shapes.weak_group_image_ids,
-            second_shapes.weak_group_image_ids);
-  EXPECT_EQ(first_shapes.wrong_rotation_pairs.size(), 4u);
-  EXPECT_EQ(first_shapes.pure_rotation_image_ids,
-            second_shapes.pure_rotation_image_ids);
-  EXPECT_EQ(first_shapes.weak_bridge_pair, second_shapes.weak_bridge_pair);
+  ExpectSameAcrossThreadsNotSeeds(options, "shapes", &first, &second,
+                                  &other_seed);
+  EXPECT_EQ(first.shapes.weak_group_image_ids,
+            second.shapes.weak_group_image_ids);
+  EXPECT_EQ(first.shapes.wrong_rotation_pairs.size(), 4u);
+  EXPECT_EQ(first.shapes.pure_rotation_image_ids,
+            second.shapes.pure_rotation_image_ids);
+  EXPECT_EQ(first.shapes.weak_bridge_pair, second.shapes.weak_bridge_pair);
   // No image plays two parts.
   std::set<colmap::image_t> special;
   size_t num_special = 0;
-  for (const auto* ids : {&first_shapes.weak_group_image_ids,
-                          &first_shapes.weak_group_anchor_image_ids,
-                          &first_shapes.long_baseline_image_ids}) {
+  for (const auto* ids : {&first.shapes.weak_group_image_ids,
+                          &first.shapes.weak_group_anchor_image_ids,
+                          &first.shapes.long_baseline_image_ids}) {
     special.insert(ids->begin(), ids->end());
     num_special += ids->size();
   }
-  for (const auto& [moved, partner] : first_shapes.pure_rotation_image_ids) {
+  for (const auto& [moved, partner] : first.shapes.pure_rotation_image_ids) {
     special.insert({moved, partner});
     num_special += 2;
   }
@@ -858,8 +858,7 @@ TEST(SyntheticScene, NoPositionPriorsByDefault) {
   options.num_images = 12;
   options.verification = "ground_truth";
   Scene scene;
-  SyntheticSceneShapes shapes;
-  MakeScene(options, "no_priors", &scene, &shapes);
+  MakeScene(options, "no_priors", &scene);
   for (const auto& [image_id, image] :
        ReadDatabaseImages(scene.database_path)) {
     EXPECT_FALSE(image.HasTvecPrior()) << image_id;
@@ -870,7 +869,7 @@ TEST(SyntheticScene, NoPositionPriorsByDefault) {
                       "SELECT image_id FROM images WHERE prior_tx IS NOT NULL "
                       "OR prior_ty IS NOT NULL OR prior_tz IS NOT NULL"),
             "0 rows\n");
-  EXPECT_TRUE(shapes.prior_positions.empty());
+  EXPECT_TRUE(scene.shapes.prior_positions.empty());
 }
 
 TEST(SyntheticScene, PositionPriors) {
@@ -884,13 +883,12 @@ TEST(SyntheticScene, PositionPriors) {
   options.prior_outlier_max_m = 100;
   options.prior_missing_ratio = 0.05;
   Scene scene;
-  SyntheticSceneShapes shapes;
-  MakeScene(options, "priors", &scene, &shapes);
-  ASSERT_EQ(shapes.prior_positions.size(), 200u);
-  ASSERT_EQ(shapes.prior_outlier_image_ids.size(), 20u);
-  ASSERT_EQ(shapes.prior_missing_image_ids.size(), 10u);
-  for (const colmap::image_t image_id : shapes.prior_missing_image_ids) {
-    EXPECT_FALSE(Contains(shapes.prior_outlier_image_ids, image_id));
+  MakeScene(options, "priors", &scene);
+  ASSERT_EQ(scene.shapes.prior_positions.size(), 200u);
+  ASSERT_EQ(scene.shapes.prior_outlier_image_ids.size(), 20u);
+  ASSERT_EQ(scene.shapes.prior_missing_image_ids.size(), 10u);
+  for (const colmap::image_t image_id : scene.shapes.prior_missing_image_ids) {
+    EXPECT_FALSE(Contains(scene.shapes.prior_outlier_image_ids, image_id));
   }
 
   const std::map<colmap::image_t, colmap::Image> images =
@@ -906,18 +904,19 @@ TEST(SyntheticScene, PositionPriors) {
         scene.ground_truth.Image(image_id).ProjectionCenter();
     // The project's reader reads the same priors as COLMAP's.
     const colmap::Image& read = scene.reconstruction.Image(image_id);
-    if (Contains(shapes.prior_missing_image_ids, image_id)) {
+    if (Contains(scene.shapes.prior_missing_image_ids, image_id)) {
       EXPECT_FALSE(image.HasTvecPrior());
       EXPECT_TRUE(image.TvecPrior().array().isNaN().all());
       EXPECT_FALSE(read.HasTvecPrior());
-      EXPECT_TRUE(shapes.prior_positions[image_id - 1].array().isNaN().all());
+      EXPECT_TRUE(
+          scene.shapes.prior_positions[image_id - 1].array().isNaN().all());
       continue;
     }
     ASSERT_TRUE(image.HasTvecPrior());
-    EXPECT_EQ(image.TvecPrior(), shapes.prior_positions[image_id - 1]);
+    EXPECT_EQ(image.TvecPrior(), scene.shapes.prior_positions[image_id - 1]);
     EXPECT_EQ(read.TvecPrior(), image.TvecPrior());
     const Eigen::Vector3d error = image.TvecPrior() - center;
-    if (Contains(shapes.prior_outlier_image_ids, image_id)) {
+    if (Contains(scene.shapes.prior_outlier_image_ids, image_id)) {
       EXPECT_GE(error.norm(), 20 - 1e-9);
       EXPECT_LE(error.norm(), 100 + 1e-9);
       continue;
@@ -984,45 +983,43 @@ TEST(SyntheticScene, PositionPriorsAreDeterministic) {
   options.prior_outlier_ratio = 0.1;
   options.prior_missing_ratio = 0.1;
   Scene first, second, other_seed, more_noise, no_outliers;
-  SyntheticSceneShapes first_shapes, second_shapes, other_shapes, more_shapes,
-      no_outlier_shapes;
-  MakeScene(options, "priors_seed_a", &first, &first_shapes);
-  MakeScene(options, "priors_seed_b", &second, &second_shapes);
+  MakeScene(options, "priors_seed_a", &first);
+  MakeScene(options, "priors_seed_b", &second);
   options.prior_position_noise_m = 2;
-  MakeScene(options, "priors_noise_2", &more_noise, &more_shapes);
+  MakeScene(options, "priors_noise_2", &more_noise);
   options.prior_position_noise_m = 1;
   options.prior_outlier_ratio = 0;
-  MakeScene(options, "priors_no_outliers", &no_outliers, &no_outlier_shapes);
+  MakeScene(options, "priors_no_outliers", &no_outliers);
   options.prior_outlier_ratio = 0.1;
   options.random_seed = 1;
-  MakeScene(options, "priors_seed_c", &other_seed, &other_shapes);
+  MakeScene(options, "priors_seed_c", &other_seed);
 
   EXPECT_EQ(DumpQuery(first.database_path, "SELECT * FROM images"),
             DumpQuery(second.database_path, "SELECT * FROM images"));
-  EXPECT_EQ(first_shapes.prior_outlier_image_ids,
-            second_shapes.prior_outlier_image_ids);
-  EXPECT_EQ(first_shapes.prior_missing_image_ids,
-            second_shapes.prior_missing_image_ids);
+  EXPECT_EQ(first.shapes.prior_outlier_image_ids,
+            second.shapes.prior_outlier_image_ids);
+  EXPECT_EQ(first.shapes.prior_missing_image_ids,
+            second.shapes.prior_missing_image_ids);
   EXPECT_TRUE(
-      SamePriors(first_shapes.prior_positions, second_shapes.prior_positions));
-  EXPECT_FALSE(
-      SamePriors(first_shapes.prior_positions, other_shapes.prior_positions));
+      SamePriors(first.shapes.prior_positions, second.shapes.prior_positions));
+  EXPECT_FALSE(SamePriors(first.shapes.prior_positions,
+                          other_seed.shapes.prior_positions));
   // Every image has its own noise: the noise level scales it, and the
   // outlier ratio changes only the outliers' priors.
-  EXPECT_EQ(first_shapes.prior_outlier_image_ids,
-            more_shapes.prior_outlier_image_ids);
+  EXPECT_EQ(first.shapes.prior_outlier_image_ids,
+            more_noise.shapes.prior_outlier_image_ids);
   for (colmap::image_t image_id = 1; image_id <= 40; ++image_id) {
     SCOPED_TRACE(image_id);
-    if (Contains(first_shapes.prior_missing_image_ids, image_id)) continue;
+    if (Contains(first.shapes.prior_missing_image_ids, image_id)) continue;
     const Eigen::Vector3d center =
         first.ground_truth.Image(image_id).ProjectionCenter();
-    const Eigen::Vector3d& prior = first_shapes.prior_positions[image_id - 1];
-    if (Contains(first_shapes.prior_outlier_image_ids, image_id)) continue;
-    EXPECT_LT(((more_shapes.prior_positions[image_id - 1] - center) -
+    const Eigen::Vector3d& prior = first.shapes.prior_positions[image_id - 1];
+    if (Contains(first.shapes.prior_outlier_image_ids, image_id)) continue;
+    EXPECT_LT(((more_noise.shapes.prior_positions[image_id - 1] - center) -
                2 * (prior - center))
                   .norm(),
               1e-9);
-    EXPECT_EQ(no_outlier_shapes.prior_positions[image_id - 1], prior);
+    EXPECT_EQ(no_outliers.shapes.prior_positions[image_id - 1], prior);
   }
 }
 
@@ -1044,15 +1041,14 @@ TEST(SyntheticScene, PositionPriorsAsGps) {
     options.prior_missing_ratio = 0.1;
     options.prior_gps_origin = origin;
     Scene metric, gps;
-    SyntheticSceneShapes metric_shapes, gps_shapes;
-    MakeScene(options, "metric_" + layout, &metric, &metric_shapes);
+    MakeScene(options, "metric_" + layout, &metric);
     options.prior_as_gps = true;
-    MakeScene(options, "gps_" + layout, &gps, &gps_shapes);
+    MakeScene(options, "gps_" + layout, &gps);
     // The same simulated positions, only stored differently.
     ASSERT_TRUE(
-        SamePriors(metric_shapes.prior_positions, gps_shapes.prior_positions));
-    EXPECT_EQ(metric_shapes.prior_outlier_image_ids,
-              gps_shapes.prior_outlier_image_ids);
+        SamePriors(metric.shapes.prior_positions, gps.shapes.prior_positions));
+    EXPECT_EQ(metric.shapes.prior_outlier_image_ids,
+              gps.shapes.prior_outlier_image_ids);
 
     const std::map<colmap::image_t, colmap::Image> metric_images =
         ReadDatabaseImages(metric.database_path);
@@ -1060,7 +1056,7 @@ TEST(SyntheticScene, PositionPriorsAsGps) {
         ReadDatabaseImages(gps.database_path);
     std::vector<Eigen::Vector3d> lla, expected;
     for (const auto& [image_id, image] : gps_images) {
-      if (Contains(gps_shapes.prior_missing_image_ids, image_id)) {
+      if (Contains(gps.shapes.prior_missing_image_ids, image_id)) {
         EXPECT_FALSE(image.HasTvecPrior());
         continue;
       }
@@ -1070,7 +1066,7 @@ TEST(SyntheticScene, PositionPriorsAsGps) {
       // Latitude, longitude and altitude, near the origin.
       EXPECT_LT(std::abs(image.TvecPrior(0) - origin.x()), 0.01);
       EXPECT_LT(std::abs(image.TvecPrior(1) - origin.y()), 0.01);
-      if (!Contains(gps_shapes.prior_outlier_image_ids, image_id)) {
+      if (!Contains(gps.shapes.prior_outlier_image_ids, image_id)) {
         EXPECT_NEAR(image.TvecPrior(2), origin.z() + expected.back().z(), 0.01);
       }
     }

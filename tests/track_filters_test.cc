@@ -62,6 +62,15 @@ class FilterScene {
                            kFocalPx * ray.y() / ray.z() + 500);
   }
 
+  // Adds a registered image centred at `center` on camera `camera_id` whose
+  // one keypoint is where `point` projects, moved by `offset_rad` (Project).
+  colmap::image_t AddImageSeeing(const Eigen::Vector3d& point,
+                                 const Eigen::Vector3d& center,
+                                 double offset_rad = 0,
+                                 colmap::camera_t camera_id = kPriorCameraId) {
+    return AddImage(center, {Project(point, center, offset_rad)}, camera_id);
+  }
+
   colmap::point3D_t AddPoint(const Eigen::Vector3d& xyz,
                              const std::vector<colmap::image_t>& image_ids) {
     colmap::Track track;
@@ -85,15 +94,12 @@ TEST(TrackFilters, AngularErrorUsesPerCameraLimit) {
       {0, 0, 0}, {1, 0, 0}, {-1, 0, 0}, {2, 0, 0}};
   const double offset_rad = colmap::DegToRad(1.5);
   FilterScene scene;
-  const colmap::image_t exact1 =
-      scene.AddImage(centers[0], {FilterScene::Project(point, centers[0])});
-  const colmap::image_t exact2 =
-      scene.AddImage(centers[1], {FilterScene::Project(point, centers[1])});
-  const colmap::image_t off_prior = scene.AddImage(
-      centers[2], {FilterScene::Project(point, centers[2], offset_rad)});
-  const colmap::image_t off_no_prior = scene.AddImage(
-      centers[3], {FilterScene::Project(point, centers[3], offset_rad)},
-      kNoPriorCameraId);
+  const colmap::image_t exact1 = scene.AddImageSeeing(point, centers[0]);
+  const colmap::image_t exact2 = scene.AddImageSeeing(point, centers[1]);
+  const colmap::image_t off_prior =
+      scene.AddImageSeeing(point, centers[2], offset_rad);
+  const colmap::image_t off_no_prior =
+      scene.AddImageSeeing(point, centers[3], offset_rad, kNoPriorCameraId);
   const colmap::point3D_t point3D_id =
       scene.AddPoint(point, {exact1, exact2, off_prior, off_no_prior});
 
@@ -111,10 +117,8 @@ TEST(TrackFilters, AngularErrorRemovesPointsBehindCamera) {
   // The keypoint matches the ray exactly, but the point lies behind camera 3.
   const Eigen::Vector3d point(0, 0, 10);
   FilterScene scene;
-  const colmap::image_t a =
-      scene.AddImage({0, 0, 0}, {FilterScene::Project(point, {0, 0, 0})});
-  const colmap::image_t b =
-      scene.AddImage({1, 0, 0}, {FilterScene::Project(point, {1, 0, 0})});
+  const colmap::image_t a = scene.AddImageSeeing(point, {0, 0, 0});
+  const colmap::image_t b = scene.AddImageSeeing(point, {1, 0, 0});
   const colmap::image_t behind = scene.AddImage({0, 0, 20}, {{500, 500}});
   const colmap::point3D_t point3D_id = scene.AddPoint(point, {a, b, behind});
   EXPECT_EQ(FilterObservationsByAngularError(&scene.reconstruction, 1, 2), 1);
@@ -125,11 +129,9 @@ TEST(TrackFilters, AngularErrorRemovesPointsBehindCamera) {
 TEST(TrackFilters, PointLeftWithOneObservationIsDeleted) {
   const Eigen::Vector3d point(0, 0, 10);
   FilterScene scene;
-  const colmap::image_t a =
-      scene.AddImage({0, 0, 0}, {FilterScene::Project(point, {0, 0, 0})});
-  const colmap::image_t b = scene.AddImage(
-      {1, 0, 0},
-      {FilterScene::Project(point, {1, 0, 0}, colmap::DegToRad(5.0))});
+  const colmap::image_t a = scene.AddImageSeeing(point, {0, 0, 0});
+  const colmap::image_t b =
+      scene.AddImageSeeing(point, {1, 0, 0}, colmap::DegToRad(5.0));
   scene.AddPoint(point, {a, b});
   // Both observations disappear with the point.
   EXPECT_EQ(FilterObservationsByAngularError(&scene.reconstruction, 1, 1), 2);
@@ -140,10 +142,8 @@ TEST(TrackFilters, PointLeftWithOneObservationIsDeleted) {
 TEST(TrackFilters, UnregisteredImagesAreIgnored) {
   const Eigen::Vector3d point(0, 0, 10);
   FilterScene scene;
-  const colmap::image_t a =
-      scene.AddImage({0, 0, 0}, {FilterScene::Project(point, {0, 0, 0})});
-  const colmap::image_t b =
-      scene.AddImage({1, 0, 0}, {FilterScene::Project(point, {1, 0, 0})});
+  const colmap::image_t a = scene.AddImageSeeing(point, {0, 0, 0});
+  const colmap::image_t b = scene.AddImageSeeing(point, {1, 0, 0});
   // Far off, but not registered: not tested.
   const colmap::image_t c =
       scene.AddImage({2, 0, 0}, {{0, 0}}, kPriorCameraId, false);
@@ -158,16 +158,12 @@ TEST(TrackFilters, TriangulationAngle) {
   // Baseline 0.1 at depth 10: angle = 2 atan(0.05 / 10) = 0.573°.
   const Eigen::Vector3d point(0.05, 0, 10);
   FilterScene scene;
-  const colmap::image_t a =
-      scene.AddImage({0, 0, 0}, {FilterScene::Project(point, {0, 0, 0})});
-  const colmap::image_t b =
-      scene.AddImage({0.1, 0, 0}, {FilterScene::Project(point, {0.1, 0, 0})});
+  const colmap::image_t a = scene.AddImageSeeing(point, {0, 0, 0});
+  const colmap::image_t b = scene.AddImageSeeing(point, {0.1, 0, 0});
   // A second point that also has a wide pair (baseline 1 => 5.7°).
   const Eigen::Vector3d wide_point(0, 0, 10);
-  const colmap::image_t c =
-      scene.AddImage({0, 0, 0}, {FilterScene::Project(wide_point, {0, 0, 0})});
-  const colmap::image_t d =
-      scene.AddImage({1, 0, 0}, {FilterScene::Project(wide_point, {1, 0, 0})});
+  const colmap::image_t c = scene.AddImageSeeing(wide_point, {0, 0, 0});
+  const colmap::image_t d = scene.AddImageSeeing(wide_point, {1, 0, 0});
   const colmap::point3D_t narrow_id = scene.AddPoint(point, {a, b});
   const colmap::point3D_t wide_id = scene.AddPoint(wide_point, {c, d});
 

@@ -12,6 +12,7 @@
 #include "estimators/fundamental_matrix.h"
 #include "estimators/two_view_geometry.h"
 #include "optim/loransac.h"
+#include "tests/support/camera_rotation.h"
 #include "util/random.h"
 
 namespace glomap {
@@ -112,6 +113,41 @@ void AddViewsAndPairs(const std::vector<TrueView>& views,
   }
 }
 
+// A camera of a RingScene: its image size in px, the focal the calibration
+// starts from and whether that is a prior, and the true focal of the pairs.
+struct RingCamera {
+  size_t width;
+  size_t height;
+  double initial_focal;
+  bool has_prior;
+  double true_focal;
+};
+
+// `num_views` views on a ring (RandomViews, drawn from `rng` seeded `seed`),
+// view i on camera 1 + i % cameras.size(), and every pair with its true F.
+struct RingScene {
+  RingScene(unsigned seed, int num_views,
+            const std::vector<RingCamera>& cameras)
+      : rng(seed) {
+    std::vector<TrueView> views = RandomViews(num_views, &rng);
+    std::vector<double> true_focals;
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      AddCamera(c + 1, cameras[c].width, cameras[c].height,
+                cameras[c].initial_focal, cameras[c].has_prior,
+                &reconstruction);
+      true_focals.push_back(cameras[c].true_focal);
+    }
+    for (size_t i = 0; i < views.size(); ++i) {
+      views[i].camera_id = 1 + i % cameras.size();
+    }
+    AddViewsAndPairs(views, true_focals, &reconstruction, &view_graph);
+  }
+
+  std::mt19937 rng;
+  colmap::Reconstruction reconstruction;
+  ViewGraph view_graph;
+};
+
 TEST(ViewGraphCalibration, ResidualsVanishOnlyAtTrueFocals) {
   std::mt19937 rng(1);
   const std::vector<TrueView> views = RandomViews(6, &rng);
@@ -138,57 +174,42 @@ TEST(ViewGraphCalibration, ResidualsVanishOnlyAtTrueFocals) {
 }
 
 TEST(ViewGraphCalibration, RecoversSharedCameraFocal) {
-  std::mt19937 rng(2);
-  std::vector<TrueView> views = RandomViews(8, &rng);
-  for (TrueView& view : views) view.camera_id = 1;
-  colmap::Reconstruction reconstruction;
   const double true_focal = 1000;
-  AddCamera(1, 1200, 900, 1.2 * 1200, /*has_prior=*/false, &reconstruction);
-  ViewGraph view_graph;
-  AddViewsAndPairs(views, {true_focal}, &reconstruction, &view_graph);
+  RingScene ring(/*seed=*/2, /*num_views=*/8,
+                 {{1200, 900, 1.2 * 1200, /*has_prior=*/false, true_focal}});
 
   size_t num_invalidated = 99;
   const Status status =
-      CalibrateViewGraph(ViewGraphCalibrationOptions(), &reconstruction,
-                         &view_graph, &num_invalidated);
+      CalibrateViewGraph(ViewGraphCalibrationOptions(), &ring.reconstruction,
+                         &ring.view_graph, &num_invalidated);
   ASSERT_TRUE(status.ok()) << status.message();
-  const colmap::Camera& camera = reconstruction.Camera(1);
+  const colmap::Camera& camera = ring.reconstruction.Camera(1);
   EXPECT_NEAR(camera.FocalLengthX(), true_focal, 0.01 * true_focal);
   EXPECT_EQ(camera.FocalLengthX(), camera.FocalLengthY());
   EXPECT_EQ(num_invalidated, 0);
-  EXPECT_EQ(view_graph.NumValidPairs(), view_graph.NumPairs());
+  EXPECT_EQ(ring.view_graph.NumValidPairs(), ring.view_graph.NumPairs());
 }
 
 TEST(ViewGraphCalibration, RecoversTwoDifferentFocals) {
-  std::mt19937 rng(3);
-  std::vector<TrueView> views = RandomViews(10, &rng);
-  for (size_t i = 0; i < views.size(); ++i) views[i].camera_id = 1 + i % 2;
-  colmap::Reconstruction reconstruction;
   const std::vector<double> true_focals = {800, 1500};
-  AddCamera(1, 1000, 750, 1.2 * 1000, false, &reconstruction);
-  AddCamera(2, 1600, 1200, 1.2 * 1600, false, &reconstruction);
-  ViewGraph view_graph;
-  AddViewsAndPairs(views, true_focals, &reconstruction, &view_graph);
+  RingScene ring(/*seed=*/3, /*num_views=*/10,
+                 {{1000, 750, 1.2 * 1000, false, true_focals[0]},
+                  {1600, 1200, 1.2 * 1600, false, true_focals[1]}});
 
-  const Status status = CalibrateViewGraph(ViewGraphCalibrationOptions(),
-                                           &reconstruction, &view_graph);
+  const Status status = CalibrateViewGraph(
+      ViewGraphCalibrationOptions(), &ring.reconstruction, &ring.view_graph);
   ASSERT_TRUE(status.ok()) << status.message();
-  EXPECT_NEAR(reconstruction.Camera(1).MeanFocalLength(), true_focals[0],
+  EXPECT_NEAR(ring.reconstruction.Camera(1).MeanFocalLength(), true_focals[0],
               0.01 * true_focals[0]);
-  EXPECT_NEAR(reconstruction.Camera(2).MeanFocalLength(), true_focals[1],
+  EXPECT_NEAR(ring.reconstruction.Camera(2).MeanFocalLength(), true_focals[1],
               0.01 * true_focals[1]);
-  EXPECT_EQ(view_graph.NumValidPairs(), view_graph.NumPairs());
+  EXPECT_EQ(ring.view_graph.NumValidPairs(), ring.view_graph.NumPairs());
 }
 
 TEST(ViewGraphCalibration, InvalidatesCorruptedPairs) {
-  std::mt19937 rng(4);
-  std::vector<TrueView> views = RandomViews(10, &rng);
-  for (TrueView& view : views) view.camera_id = 1;
-  colmap::Reconstruction reconstruction;
   const double true_focal = 1100;
-  AddCamera(1, 1200, 900, 1.2 * 1200, false, &reconstruction);
-  ViewGraph view_graph;
-  AddViewsAndPairs(views, {true_focal}, &reconstruction, &view_graph);
+  RingScene ring(/*seed=*/4, /*num_views=*/10,
+                 {{1200, 900, 1.2 * 1200, false, true_focal}});
 
   // Replace the F of every fifth pair by a random rank-2 matrix. Such an F
   // is generally not an essential matrix for the camera's focal, but the
@@ -199,10 +220,10 @@ TEST(ViewGraphCalibration, InvalidatesCorruptedPairs) {
   std::vector<colmap::image_pair_t> corrupted_ids;
   const Eigen::Matrix3d K_inv = TrueK(true_focal, 600, 450).inverse();
   int k = 0;
-  for (auto& [pair_id, pair] : view_graph.Pairs()) {
+  for (auto& [pair_id, pair] : ring.view_graph.Pairs()) {
     if (k++ % 5 != 2) continue;
     Eigen::Matrix3d M;
-    for (int i = 0; i < 9; ++i) M(i) = normal(rng);
+    for (int i = 0; i < 9; ++i) M(i) = normal(ring.rng);
     Eigen::JacobiSVD<Eigen::Matrix3d> svd(
         M, Eigen::ComputeFullU | Eigen::ComputeFullV);
     Eigen::Vector3d sigma = svd.singularValues();
@@ -217,15 +238,15 @@ TEST(ViewGraphCalibration, InvalidatesCorruptedPairs) {
 
   size_t num_invalidated = 0;
   const Status status =
-      CalibrateViewGraph(ViewGraphCalibrationOptions(), &reconstruction,
-                         &view_graph, &num_invalidated);
+      CalibrateViewGraph(ViewGraphCalibrationOptions(), &ring.reconstruction,
+                         &ring.view_graph, &num_invalidated);
   ASSERT_TRUE(status.ok()) << status.message();
-  const double focal = reconstruction.Camera(1).MeanFocalLength();
+  const double focal = ring.reconstruction.Camera(1).MeanFocalLength();
   EXPECT_NEAR(focal, true_focal, 0.01 * true_focal);
   size_t num_corrupted_invalidated = 0;
   const Eigen::Vector2d pp(600, 450);
   for (const colmap::image_pair_t pair_id : corrupted_ids) {
-    const ImagePair& pair = view_graph.Pairs().at(pair_id);
+    const ImagePair& pair = ring.view_graph.Pairs().at(pair_id);
     Eigen::Vector2d residuals;
     ASSERT_TRUE(FundamentalMatrixFocalResiduals(pair.F, pp, pp, focal, focal,
                                                 &residuals));
@@ -239,71 +260,58 @@ TEST(ViewGraphCalibration, InvalidatesCorruptedPairs) {
   EXPECT_GE(num_corrupted_invalidated, 1);
   // No correct pair is lost.
   EXPECT_EQ(num_invalidated, num_corrupted_invalidated);
-  EXPECT_EQ(view_graph.NumValidPairs(),
-            view_graph.NumPairs() - num_corrupted_invalidated);
+  EXPECT_EQ(ring.view_graph.NumValidPairs(),
+            ring.view_graph.NumPairs() - num_corrupted_invalidated);
 }
 
 TEST(ViewGraphCalibration, CamerasWithPriorsStayConstant) {
-  std::mt19937 rng(5);
-  std::vector<TrueView> views = RandomViews(10, &rng);
-  for (size_t i = 0; i < views.size(); ++i) views[i].camera_id = 1 + i % 2;
-  colmap::Reconstruction reconstruction;
   // Camera 1 has a (slightly wrong) prior that must not move; camera 2 is
   // free and is recovered from the pairs with camera 1 and with itself.
-  AddCamera(1, 1000, 750, 820, /*has_prior=*/true, &reconstruction);
-  AddCamera(2, 1600, 1200, 1.2 * 1600, false, &reconstruction);
-  const std::vector<double> params_before = reconstruction.Camera(1).Params();
-  ViewGraph view_graph;
-  AddViewsAndPairs(views, {800, 1500}, &reconstruction, &view_graph);
+  RingScene ring(/*seed=*/5, /*num_views=*/10,
+                 {{1000, 750, 820, /*has_prior=*/true, 800},
+                  {1600, 1200, 1.2 * 1600, false, 1500}});
+  const std::vector<double> params_before =
+      ring.reconstruction.Camera(1).Params();
 
-  const Status status = CalibrateViewGraph(ViewGraphCalibrationOptions(),
-                                           &reconstruction, &view_graph);
+  const Status status = CalibrateViewGraph(
+      ViewGraphCalibrationOptions(), &ring.reconstruction, &ring.view_graph);
   ASSERT_TRUE(status.ok()) << status.message();
-  EXPECT_EQ(reconstruction.Camera(1).Params(), params_before);
-  EXPECT_NEAR(reconstruction.Camera(2).MeanFocalLength(), 1500, 0.02 * 1500);
+  EXPECT_EQ(ring.reconstruction.Camera(1).Params(), params_before);
+  EXPECT_NEAR(ring.reconstruction.Camera(2).MeanFocalLength(), 1500,
+              0.02 * 1500);
 }
 
 TEST(ViewGraphCalibration, NoFreeCameraChangesNothing) {
-  std::mt19937 rng(6);
-  std::vector<TrueView> views = RandomViews(5, &rng);
-  for (TrueView& view : views) view.camera_id = 1;
-  colmap::Reconstruction reconstruction;
-  AddCamera(1, 1200, 900, 1300, /*has_prior=*/true, &reconstruction);
-  ViewGraph view_graph;
-  AddViewsAndPairs(views, {1000}, &reconstruction, &view_graph);
+  RingScene ring(/*seed=*/6, /*num_views=*/5,
+                 {{1200, 900, 1300, /*has_prior=*/true, 1000}});
   // A broken pair must not crash anything either.
-  view_graph.Pairs().begin()->second.F.setZero();
+  ring.view_graph.Pairs().begin()->second.F.setZero();
   size_t num_invalidated = 99;
   const Status status =
-      CalibrateViewGraph(ViewGraphCalibrationOptions(), &reconstruction,
-                         &view_graph, &num_invalidated);
+      CalibrateViewGraph(ViewGraphCalibrationOptions(), &ring.reconstruction,
+                         &ring.view_graph, &num_invalidated);
   ASSERT_TRUE(status.ok()) << status.message();
-  EXPECT_EQ(reconstruction.Camera(1).MeanFocalLength(), 1300);
+  EXPECT_EQ(ring.reconstruction.Camera(1).MeanFocalLength(), 1300);
   EXPECT_EQ(num_invalidated, 0);
-  EXPECT_EQ(view_graph.NumValidPairs(), view_graph.NumPairs());
+  EXPECT_EQ(ring.view_graph.NumValidPairs(), ring.view_graph.NumPairs());
 }
 
 TEST(ViewGraphCalibration, DegenerateInputsDoNotCrash) {
-  std::mt19937 rng(7);
-  std::vector<TrueView> views = RandomViews(4, &rng);
-  for (TrueView& view : views) view.camera_id = 1;
-  colmap::Reconstruction reconstruction;
-  AddCamera(1, 1200, 900, 1440, false, &reconstruction);
-  ViewGraph view_graph;
-  AddViewsAndPairs(views, {1000}, &reconstruction, &view_graph);
-  auto it = view_graph.Pairs().begin();
+  RingScene ring(/*seed=*/7, /*num_views=*/4, {{1200, 900, 1440, false, 1000}});
+  auto it = ring.view_graph.Pairs().begin();
   (it++)->second.F.setZero();
   (it++)->second.F = Eigen::Matrix3d::Constant(NAN);
   it->second.F = Eigen::Vector3d(1, 2, 3) * Eigen::RowVector3d(4, 5, 6);
-  const Status status = CalibrateViewGraph(ViewGraphCalibrationOptions(),
-                                           &reconstruction, &view_graph);
+  const Status status = CalibrateViewGraph(
+      ViewGraphCalibrationOptions(), &ring.reconstruction, &ring.view_graph);
   ASSERT_TRUE(status.ok()) << status.message();
-  EXPECT_TRUE(std::isfinite(reconstruction.Camera(1).MeanFocalLength()));
+  EXPECT_TRUE(std::isfinite(ring.reconstruction.Camera(1).MeanFocalLength()));
 
   ViewGraphCalibrationOptions bad_options;
   bad_options.max_focal_ratio = 0.05;
   EXPECT_FALSE(
-      CalibrateViewGraph(bad_options, &reconstruction, &view_graph).ok());
+      CalibrateViewGraph(bad_options, &ring.reconstruction, &ring.view_graph)
+          .ok());
 }
 
 // An orbit: 36 cameras on a spiral over a dome of elevations 10 to 60
@@ -343,12 +351,8 @@ void MakeOrbit(double focal, double ball_radius, double target_jitter,
         target_jitter *
         Eigen::Vector3d(uniform(*rng), uniform(*rng), uniform(*rng));
     const Eigen::Vector3d center = 8 * direction;
-    const Eigen::Vector3d z = (target - center).normalized();
-    const Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ()).normalized();
-    Eigen::Matrix3d rotation;
-    rotation.row(0) = x;
-    rotation.row(1) = z.cross(x);
-    rotation.row(2) = z;
+    const Eigen::Matrix3d rotation =
+        testing::CamFromWorldLookingAlong(target - center);
     std::vector<Eigen::Vector2d> keypoints;
     for (const Eigen::Vector3d& point : points) {
       const Eigen::Vector3d in_camera = rotation * (point - center);
@@ -473,17 +477,12 @@ TEST(ViewGraphCalibration, FocalFromFundamentalMatricesKeptWhereItHolds) {
 // Without keypoints and matches (only F, as in the tests above) there is no
 // small reconstruction, and the fundamental matrices decide alone.
 TEST(ViewGraphCalibration, SmallReconstructionNeedsMatches) {
-  std::mt19937 rng(12);
-  std::vector<TrueView> views = RandomViews(8, &rng);
-  for (TrueView& view : views) view.camera_id = 1;
-  colmap::Reconstruction reconstruction;
-  AddCamera(1, 1200, 900, 1.2 * 1200, /*has_prior=*/false, &reconstruction);
-  ViewGraph view_graph;
-  AddViewsAndPairs(views, {1000}, &reconstruction, &view_graph);
-  ASSERT_TRUE(CalibrateViewGraph(ViewGraphCalibrationOptions(), &reconstruction,
-                                 &view_graph)
+  RingScene ring(/*seed=*/12, /*num_views=*/8,
+                 {{1200, 900, 1.2 * 1200, /*has_prior=*/false, 1000}});
+  ASSERT_TRUE(CalibrateViewGraph(ViewGraphCalibrationOptions(),
+                                 &ring.reconstruction, &ring.view_graph)
                   .ok());
-  EXPECT_NEAR(reconstruction.Camera(1).MeanFocalLength(), 1000, 10);
+  EXPECT_NEAR(ring.reconstruction.Camera(1).MeanFocalLength(), 1000, 10);
   ViewGraphCalibrationOptions bad;
   bad.multi_view_num_images = -1;
   EXPECT_EQ(bad.Check().message(), "multi_view_num_images must be >= 0, is -1");
@@ -496,7 +495,8 @@ TEST(ViewGraphCalibration, SmallReconstructionNeedsMatches) {
   bad.multi_view_min_model_ratio = 1.5;
   EXPECT_EQ(bad.Check().message(),
             "multi_view_min_model_ratio must be in [0, 1], is 1.5");
-  EXPECT_FALSE(CalibrateViewGraph(bad, &reconstruction, &view_graph).ok());
+  EXPECT_FALSE(
+      CalibrateViewGraph(bad, &ring.reconstruction, &ring.view_graph).ok());
 }
 
 }  // namespace

@@ -30,9 +30,11 @@ struct RegisteredView {
   }
 };
 
-std::unordered_map<colmap::image_t, RegisteredView> RegisteredViews(
+using RegisteredViews = std::unordered_map<colmap::image_t, RegisteredView>;
+
+RegisteredViews FindRegisteredViews(
     const colmap::Reconstruction& reconstruction) {
-  std::unordered_map<colmap::image_t, RegisteredView> views;
+  RegisteredViews views;
   views.reserve(reconstruction.NumRegImages());
   for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
     const colmap::Image& image = reconstruction.Image(image_id);
@@ -47,28 +49,51 @@ std::unordered_map<colmap::image_t, RegisteredView> RegisteredViews(
   return views;
 }
 
-// Removes every observation (in a registered image) for which
-// `is_outlier(view, keypoint_xy, point_xyz)` holds. A point left with fewer
-// than two observations is deleted as a whole (COLMAP cannot hold it).
+// Calls `visit(view, element)` for each observation of `point3D`, in track
+// order, that is in a registered image: the only observations any filter
+// here tests or counts.
+template <typename Visit>
+void ForEachRegisteredObservation(const RegisteredViews& views,
+                                  const colmap::Point3D& point3D,
+                                  const Visit& visit) {
+  for (const colmap::TrackElement& el : point3D.Track().Elements()) {
+    const auto view = views.find(el.image_id);
+    if (view != views.end()) visit(view->second, el);
+  }
+}
+
+// Whether a point at `point_in_cam` (camera frame) lies behind the camera or
+// on its centre plane, where no projection or ray angle is defined.
+bool IsBehindCamera(const Eigen::Vector3d& point_in_cam) {
+  return point_in_cam.z() <= std::numeric_limits<double>::epsilon();
+}
+
+// Removes every observation (in a registered image) of a point behind the
+// camera, and every one for which
+// `is_outlier(view, keypoint_xy, point_in_cam)` holds. A point left with
+// fewer than two observations is deleted as a whole (COLMAP cannot hold it).
 // Returns the number of observations removed, those lost with a deleted point
 // included.
 template <typename IsOutlier>
 size_t FilterObservations(colmap::Reconstruction* reconstruction,
                           const IsOutlier& is_outlier) {
-  const std::unordered_map<colmap::image_t, RegisteredView> views =
-      RegisteredViews(*reconstruction);
+  const RegisteredViews views = FindRegisteredViews(*reconstruction);
   size_t num_removed = 0;
   std::vector<colmap::TrackElement> outliers;
   for (const colmap::point3D_t point3D_id : SortedPoint3DIds(*reconstruction)) {
     const colmap::Point3D& point3D = reconstruction->Point3D(point3D_id);
     outliers.clear();
-    for (const colmap::TrackElement& el : point3D.Track().Elements()) {
-      const auto view = views.find(el.image_id);
-      if (view == views.end()) continue;
-      const Eigen::Vector2d& xy =
-          view->second.image->Point2D(el.point2D_idx).XY();
-      if (is_outlier(view->second, xy, point3D.XYZ())) outliers.push_back(el);
-    }
+    ForEachRegisteredObservation(
+        views, point3D,
+        [&](const RegisteredView& view, const colmap::TrackElement& el) {
+          const Eigen::Vector3d point_in_cam =
+              view.PointInCamera(point3D.XYZ());
+          if (IsBehindCamera(point_in_cam) ||
+              is_outlier(view, view.image->Point2D(el.point2D_idx).XY(),
+                         point_in_cam)) {
+            outliers.push_back(el);
+          }
+        });
     if (outliers.empty()) continue;
     const size_t track_length = point3D.Track().Length();
     if (track_length - outliers.size() < 2) {
@@ -82,6 +107,21 @@ size_t FilterObservations(colmap::Reconstruction* reconstruction,
     }
   }
   return num_removed;
+}
+
+// Removes the observations (in front of their camera) whose squared
+// `residual(view, keypoint_xy, point_in_cam)` exceeds `max_error` squared.
+template <typename Residual>
+size_t FilterObservationsByResidual(colmap::Reconstruction* reconstruction,
+                                    const double max_error,
+                                    const Residual& residual) {
+  const double max_squared_error = max_error * max_error;
+  return FilterObservations(
+      reconstruction, [&](const RegisteredView& view, const Eigen::Vector2d& xy,
+                          const Eigen::Vector3d& point_in_cam) {
+        return residual(view, xy, point_in_cam).squaredNorm() >
+               max_squared_error;
+      });
 }
 
 }  // namespace
@@ -116,11 +156,7 @@ size_t FilterObservationsByAngularError(
       std::cos(colmap::DegToRad(max_angle_deg_without_prior));
   return FilterObservations(
       reconstruction, [&](const RegisteredView& view, const Eigen::Vector2d& xy,
-                          const Eigen::Vector3d& xyz) {
-        const Eigen::Vector3d point_in_cam = view.PointInCamera(xyz);
-        if (point_in_cam.z() <= std::numeric_limits<double>::epsilon()) {
-          return true;
-        }
+                          const Eigen::Vector3d& point_in_cam) {
         const Eigen::Vector3d observed_ray =
             view.camera->ImageToWorld(xy).homogeneous();
         const double min_cos = view.camera->HasPriorFocalLength()
@@ -134,21 +170,20 @@ size_t FilterObservationsByAngularError(
 
 size_t FilterPointsByTriangulationAngle(colmap::Reconstruction* reconstruction,
                                         const double min_angle_deg) {
-  const std::unordered_map<colmap::image_t, RegisteredView> views =
-      RegisteredViews(*reconstruction);
+  const RegisteredViews views = FindRegisteredViews(*reconstruction);
   const double max_cos = std::cos(colmap::DegToRad(min_angle_deg));
   size_t num_deleted = 0;
   std::vector<Eigen::Vector3d> rays;
   for (const colmap::point3D_t point3D_id : SortedPoint3DIds(*reconstruction)) {
     const colmap::Point3D& point3D = reconstruction->Point3D(point3D_id);
     rays.clear();
-    for (const colmap::TrackElement& el : point3D.Track().Elements()) {
-      const auto view = views.find(el.image_id);
-      if (view == views.end()) continue;
-      const Eigen::Vector3d ray = point3D.XYZ() - view->second.center_in_world;
-      const double norm = ray.norm();
-      if (norm > 0) rays.push_back(ray / norm);
-    }
+    ForEachRegisteredObservation(
+        views, point3D,
+        [&](const RegisteredView& view, const colmap::TrackElement&) {
+          const Eigen::Vector3d ray = point3D.XYZ() - view.center_in_world;
+          const double norm = ray.norm();
+          if (norm > 0) rays.push_back(ray / norm);
+        });
     bool is_triangulated = false;
     for (size_t i = 0; i < rays.size() && !is_triangulated; ++i) {
       for (size_t j = i + 1; j < rays.size(); ++j) {
@@ -168,54 +203,42 @@ size_t FilterPointsByTriangulationAngle(colmap::Reconstruction* reconstruction,
 
 size_t FilterObservationsByNormalizedReprojectionError(
     colmap::Reconstruction* reconstruction, const double max_error) {
-  const double max_squared_error = max_error * max_error;
-  return FilterObservations(
-      reconstruction, [&](const RegisteredView& view, const Eigen::Vector2d& xy,
-                          const Eigen::Vector3d& xyz) {
-        const Eigen::Vector3d point_in_cam = view.PointInCamera(xyz);
-        if (point_in_cam.z() <= std::numeric_limits<double>::epsilon()) {
-          return true;
-        }
-        return (point_in_cam.hnormalized() - view.camera->ImageToWorld(xy))
-                   .squaredNorm() > max_squared_error;
+  return FilterObservationsByResidual(
+      reconstruction, max_error,
+      [](const RegisteredView& view, const Eigen::Vector2d& xy,
+         const Eigen::Vector3d& point_in_cam) -> Eigen::Vector2d {
+        return point_in_cam.hnormalized() - view.camera->ImageToWorld(xy);
       });
 }
 
 size_t FilterObservationsByReprojectionErrorPx(
     colmap::Reconstruction* reconstruction, const double max_error_px) {
-  const double max_squared_error = max_error_px * max_error_px;
-  return FilterObservations(
-      reconstruction, [&](const RegisteredView& view, const Eigen::Vector2d& xy,
-                          const Eigen::Vector3d& xyz) {
-        const Eigen::Vector3d point_in_cam = view.PointInCamera(xyz);
-        if (point_in_cam.z() <= std::numeric_limits<double>::epsilon()) {
-          return true;
-        }
-        return (view.camera->WorldToImage(point_in_cam.hnormalized()) - xy)
-                   .squaredNorm() > max_squared_error;
+  return FilterObservationsByResidual(
+      reconstruction, max_error_px,
+      [](const RegisteredView& view, const Eigen::Vector2d& xy,
+         const Eigen::Vector3d& point_in_cam) -> Eigen::Vector2d {
+        return view.camera->WorldToImage(point_in_cam.hnormalized()) - xy;
       });
 }
 
 void UpdatePointErrors(colmap::Reconstruction* reconstruction) {
-  const std::unordered_map<colmap::image_t, RegisteredView> views =
-      RegisteredViews(*reconstruction);
+  const RegisteredViews views = FindRegisteredViews(*reconstruction);
   for (const colmap::point3D_t point3D_id : SortedPoint3DIds(*reconstruction)) {
     colmap::Point3D& point3D = reconstruction->Point3D(point3D_id);
     double sum_error_px = 0;
     size_t num_errors = 0;
-    for (const colmap::TrackElement& el : point3D.Track().Elements()) {
-      const auto view = views.find(el.image_id);
-      if (view == views.end()) continue;
-      const Eigen::Vector3d point_in_cam =
-          view->second.PointInCamera(point3D.XYZ());
-      if (point_in_cam.z() <= std::numeric_limits<double>::epsilon()) continue;
-      const Eigen::Vector2d& xy =
-          view->second.image->Point2D(el.point2D_idx).XY();
-      sum_error_px +=
-          (view->second.camera->WorldToImage(point_in_cam.hnormalized()) - xy)
-              .norm();
-      ++num_errors;
-    }
+    ForEachRegisteredObservation(
+        views, point3D,
+        [&](const RegisteredView& view, const colmap::TrackElement& el) {
+          const Eigen::Vector3d point_in_cam =
+              view.PointInCamera(point3D.XYZ());
+          if (IsBehindCamera(point_in_cam)) return;
+          const Eigen::Vector2d& xy = view.image->Point2D(el.point2D_idx).XY();
+          sum_error_px +=
+              (view.camera->WorldToImage(point_in_cam.hnormalized()) - xy)
+                  .norm();
+          ++num_errors;
+        });
     point3D.SetError(num_errors > 0 ? sum_error_px / num_errors : -1.0);
   }
 }

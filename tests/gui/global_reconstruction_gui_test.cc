@@ -13,6 +13,7 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <memory>
 #include <string>
 #include <thread>
 #include <type_traits>
@@ -44,62 +45,6 @@ std::string FountainDir() {
     return "";
   }
   return dir.string();
-}
-
-// A project as the user has it on disk: a copy of the database (never write
-// into the shared folder) and a project.ini written the stock way.
-std::string WriteProject(const std::string& test_dir,
-                         const std::string& fountain_dir) {
-  const fs::path database_path = fs::path(test_dir) / "database.db";
-  fs::copy_file(fs::path(fountain_dir) / "database.db", database_path,
-                fs::copy_options::overwrite_existing);
-  fs::permissions(database_path, fs::perms::owner_read | fs::perms::owner_write,
-                  fs::perm_options::add);
-  OptionManager options;
-  options.AddAllOptions();
-  *options.database_path = database_path.string();
-  *options.image_path = (fs::path(fountain_dir) / "images").string();
-  const std::string project_path =
-      (fs::path(test_dir) / "project.ini").string();
-  options.Write(project_path);
-  return project_path;
-}
-
-// A project on a synthetic scene of `num_images` images (no image files: the
-// pipeline reads only the database), for runs that must last a few seconds.
-// The pairs are verified against the true geometry: COLMAP's own two-view
-// estimation would take a minute and a half for 100 images here.
-std::string WriteSyntheticProject(const std::string& test_dir, int num_images) {
-  const fs::path database_path = fs::path(test_dir) / "database.db";
-  const fs::path image_path = fs::path(test_dir) / "images";
-  fs::create_directories(image_path);
-  glomap::SyntheticSceneOptions scene;
-  scene.num_images = num_images;
-  scene.random_seed = 5;
-  scene.verification = "ground_truth";
-  Reconstruction ground_truth;
-  const glomap::Status written =
-      glomap::WriteSyntheticScene(scene, database_path.string(), &ground_truth);
-  EXPECT_TRUE(written.ok()) << written.message();
-  OptionManager project;
-  project.AddAllOptions();
-  *project.database_path = database_path.string();
-  *project.image_path = image_path.string();
-  const std::string project_path = test_dir + "/project.ini";
-  project.Write(project_path);
-  return project_path;
-}
-
-// The options of `colmap gui --project_path <project_path>` (src/exe/gui.cc).
-// `import_path` must outlive `options`, which keeps a pointer to it.
-void ParseGuiArguments(const std::string& project_path, OptionManager* options,
-                       std::string* import_path) {
-  options->AddDefaultOption("import_path", import_path);
-  options->AddAllOptions();
-  std::vector<std::string> args = {"colmap", "--project_path", project_path};
-  std::vector<char*> argv;
-  for (std::string& arg : args) argv.push_back(arg.data());
-  options->Parse(static_cast<int>(argv.size()), argv.data());
 }
 
 // Finds an action by its text in one of the window's menus.
@@ -176,20 +121,6 @@ QString StatusBarLabel(QMainWindow* window, const QString& prefix) {
   return "";
 }
 
-// Starts a global run from the menu and waits until the status bar shows
-// `stage`; true if the run is still going then (the stage is reached mid-run).
-bool RunUntilStage(GlobalReconstructionUi* ui, QMainWindow* window,
-                   const QString& stage) {
-  ui->RunAction()->trigger();
-  if (!ui->IsRunning()) return false;
-  WaitUntil(
-      [&]() {
-        return StatusBarText(window).contains(stage) || !ui->IsRunning();
-      },
-      kRunTimeoutMs);
-  return ui->IsRunning();
-}
-
 // A ModalDialogHandler callback for message boxes: records each box's text
 // in `texts` and answers it (Yes where the box has it, when `answer_yes`;
 // otherwise accept or reject, as `accept` says).
@@ -259,69 +190,199 @@ double DrawnFraction(const QImage& image, const QRect& rect) {
   return num_pixels == 0 ? 0 : static_cast<double>(num_drawn) / num_pixels;
 }
 
-TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
-  const std::string fountain_dir = FountainDir();
-  if (fountain_dir.empty()) {
+// Each case opens its project in a MainWindow of its own, as
+// `colmap gui --project_path <project>` does (src/exe/gui.cc), with the
+// global reconstruction installed.
+class GlobalReconstructionGui : public ::testing::Test {
+ protected:
+  // A project as the user has it on disk, in the new test folder `name`: a
+  // copy of fountain-P11's database (never write into the shared folder) and
+  // a project.ini written the stock way. False if the dataset is absent.
+  bool WriteFountainProject(const std::string& name) {
+    const std::string fountain_dir = FountainDir();
+    if (fountain_dir.empty()) return false;
+    test_dir_ = glomap::testing::CreateTestDir(name);
+    const fs::path database_path = fs::path(test_dir_) / "database.db";
+    fs::copy_file(fs::path(fountain_dir) / "database.db", database_path,
+                  fs::copy_options::overwrite_existing);
+    fs::permissions(database_path,
+                    fs::perms::owner_read | fs::perms::owner_write,
+                    fs::perm_options::add);
+    WriteProjectFile(database_path, fs::path(fountain_dir) / "images");
+    return true;
+  }
+
+  // A project on a synthetic scene of `num_images` images (no image files:
+  // the pipeline reads only the database) in the new test folder `name`, for
+  // runs that must last a few seconds. The pairs are verified against the
+  // true geometry: COLMAP's own two-view estimation would take a minute and a
+  // half for 100 images here. False (the failure reported) if it could not
+  // be written.
+  bool WriteSyntheticProject(const std::string& name, int num_images) {
+    test_dir_ = glomap::testing::CreateTestDir(name);
+    const fs::path database_path = fs::path(test_dir_) / "database.db";
+    const fs::path image_path = fs::path(test_dir_) / "images";
+    fs::create_directories(image_path);
+    glomap::SyntheticSceneOptions scene;
+    scene.num_images = num_images;
+    scene.random_seed = 5;
+    scene.verification = "ground_truth";
+    Reconstruction ground_truth;
+    const glomap::Status written = glomap::WriteSyntheticScene(
+        scene, database_path.string(), &ground_truth);
+    EXPECT_TRUE(written.ok()) << written.message();
+    WriteProjectFile(database_path, image_path);
+    return !HasFailure();
+  }
+
+  // The project.ini of the test folder, written the stock way.
+  void WriteProjectFile(const fs::path& database_path,
+                        const fs::path& image_path) {
+    OptionManager project;
+    project.AddAllOptions();
+    *project.database_path = database_path.string();
+    *project.image_path = image_path.string();
+    project_path_ = (fs::path(test_dir_) / "project.ini").string();
+    project.Write(project_path_);
+  }
+
+  // Opens the project with the options of `colmap gui --project_path
+  // <project>` and shows the window, at `size` where one is given.
+  void OpenProject(const QSize& size = QSize()) {
+    options_.AddDefaultOption("import_path", &import_path_);
+    options_.AddAllOptions();
+    std::vector<std::string> args = {"colmap", "--project_path", project_path_};
+    std::vector<char*> argv;
+    for (std::string& arg : args) argv.push_back(arg.data());
+    options_.Parse(static_cast<int>(argv.size()), argv.data());
+    window_ = std::make_unique<MainWindow>(options_);
+    ui_ = InstallGlobalReconstruction(window_.get());
+    if (size.isValid()) window_->resize(size);
+    window_->show();
+  }
+
+  // From now on, records every message box in `messages_` and answers it as
+  // RecordMessageBoxes says.
+  void RecordMessages(bool answer_yes, bool accept = false) {
+    message_boxes_ = std::make_unique<ModalDialogHandler>(
+        RecordMessageBoxes(&messages_, answer_yes, accept));
+  }
+
+  MainWindow* window() { return window_.get(); }
+
+  // Starts a global run from the menu and waits until the status bar shows
+  // `stage`; true if the run is still going then (the stage is reached
+  // mid-run).
+  bool RunUntilStage(const QString& stage) {
+    ui_->RunAction()->trigger();
+    if (!ui_->IsRunning()) return false;
+    WaitUntil(
+        [&]() {
+          return StatusBarText(window()).contains(stage) || !ui_->IsRunning();
+        },
+        kRunTimeoutMs);
+    return ui_->IsRunning();
+  }
+
+  // Clicks Cancel during a run: the run stops within a second, cancelled,
+  // with no model. `when` names the moment in the printed time.
+  void CancelPromptly(const std::string& when) {
+    QPushButton* cancel = StatusBarButton(window(), "Cancel");
+    ASSERT_NE(cancel, nullptr);
+    QElapsedTimer cancel_timer;
+    cancel_timer.start();
+    cancel->click();
+    ASSERT_TRUE(WaitUntil([&]() { return !ui_->IsRunning(); }, 60000));
+    printf("Cancel %s took %lld ms\n", when.c_str(), cancel_timer.elapsed());
+    EXPECT_LT(cancel_timer.elapsed(), 1000) << "Cancel is not prompt";
+    EXPECT_TRUE(ui_->LastStatus().cancelled()) << ui_->LastStatus().message();
+    EXPECT_EQ(ui_->Models().Size(), 0u);
+    EXPECT_TRUE(StatusBarText(window()).contains("cancelled"))
+        << StatusBarText(window()).toStdString();
+  }
+
+  // Closes the window during a run (RecordMessages(true) answers "Do you
+  // really want to quit?" with Yes, the one message allowed): it closes
+  // within `max_ms` and stops the run, leaving no model. `what` names the
+  // case in the printed time.
+  void CloseStopsTheRun(const std::string& what, qint64 max_ms) {
+    QElapsedTimer close_timer;
+    close_timer.start();
+    EXPECT_TRUE(window_->close());
+    printf("%s took %lld ms\n", what.c_str(), close_timer.elapsed());
+    EXPECT_LT(close_timer.elapsed(), max_ms);
+    EXPECT_FALSE(window_->isVisible());
+    ProcessEventsFor(200);
+    EXPECT_FALSE(ui_->IsRunning());
+    EXPECT_EQ(ui_->Models().Size(), 0u);
+    ASSERT_EQ(messages_.size(), 1) << messages_.join("\n").toStdString();
+    EXPECT_TRUE(messages_.front().contains("quit"));
+  }
+
+  std::string test_dir_;
+  std::string project_path_;
+  // `import_path_` must outlive `options_`, which keeps a pointer to it.
+  std::string import_path_;
+  OptionManager options_;
+  std::unique_ptr<MainWindow> window_;
+  GlobalReconstructionUi* ui_ = nullptr;
+  QStringList messages_;
+  std::unique_ptr<ModalDialogHandler> message_boxes_;
+};
+
+TEST_F(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
+  if (!WriteFountainProject("global_reconstruction_gui")) {
     GTEST_SKIP() << "Shared dataset fountain-P11 not found.";
   }
-  const std::string test_dir =
-      glomap::testing::CreateTestDir("global_reconstruction_gui");
-  const std::string project_path = WriteProject(test_dir, fountain_dir);
 
   // Options beside the project are picked up on start: a non-default seed.
   glomap::GlobalMapperOptions saved_options;
   saved_options.random_seed = 7;
   ASSERT_TRUE(glomap::WriteGlobalMapperOptionsFile(
-      GlobalReconstructionUi::OptionsFilePath(project_path), saved_options));
+      GlobalReconstructionUi::OptionsFilePath(project_path_), saved_options));
 
-  OptionManager options;
-  std::string import_path;
-  ParseGuiArguments(project_path, &options, &import_path);
-  MainWindow window(options);
-  GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
+  OpenProject(QSize(1400, 860));
   EXPECT_EQ(std::get_terminate(), &ReportTerminationAndExit);
-  window.resize(1400, 860);
-  window.show();
   ProcessEventsFor(300);
-  EXPECT_EQ(ui->Options()->random_seed, 7);
+  EXPECT_EQ(ui_->Options()->random_seed, 7);
 
   // The menu entry sits after the incremental actions; a tool-bar button too.
   QAction* run =
-      FindMenuAction(&window, "Reconstruction", "Global reconstruction");
+      FindMenuAction(window(), "Reconstruction", "Global reconstruction");
   ASSERT_NE(run, nullptr);
   ASSERT_TRUE(run->isEnabled());
   bool in_toolbar = false;
-  for (QToolBar* toolbar : window.findChildren<QToolBar*>()) {
+  for (QToolBar* toolbar : window_->findChildren<QToolBar*>()) {
     in_toolbar = in_toolbar || toolbar->actions().contains(run);
   }
   EXPECT_TRUE(in_toolbar);
-  QAction* options_action = FindMenuAction(&window, "Reconstruction",
+  QAction* options_action = FindMenuAction(window(), "Reconstruction",
                                            "Global reconstruction options...");
   ASSERT_NE(options_action, nullptr);
 
   // The options dialog lists every table entry, grouped by stage.
   options_action->trigger();
   ProcessEventsFor(100);
-  EXPECT_TRUE(ui->OptionsDialog()->isVisible());
+  EXPECT_TRUE(ui_->OptionsDialog()->isVisible());
   glomap::GlobalMapperOptions table_options;
   EXPECT_EQ(
-      ui->OptionsDialog()->NumOptions(),
+      ui_->OptionsDialog()->NumOptions(),
       static_cast<int>(glomap::GlobalMapperOptionTable(&table_options).size()));
-  EXPECT_GT(ui->OptionsDialog()->Groups().size(), 1);
-  ui->OptionsDialog()->grab().save(QString(GLOMAP_BINARY_DIR) +
-                                   "/gui_options_dialog.png");
-  EXPECT_TRUE(ui->OptionsDialog()->Apply());
-  ui->OptionsDialog()->hide();
-  EXPECT_EQ(ui->Options()->random_seed, 7);
+  EXPECT_GT(ui_->OptionsDialog()->Groups().size(), 1);
+  ui_->OptionsDialog()->grab().save(QString(GLOMAP_BINARY_DIR) +
+                                    "/gui_options_dialog.png");
+  EXPECT_TRUE(ui_->OptionsDialog()->Apply());
+  ui_->OptionsDialog()->hide();
+  EXPECT_EQ(ui_->Options()->random_seed, 7);
 
   // File > Save project keeps the options beside the project, and leaves
   // the project file readable by stock COLMAP 3.8 (which rejects unknown
   // keys).
   const std::string options_path =
-      GlobalReconstructionUi::OptionsFilePath(project_path);
+      GlobalReconstructionUi::OptionsFilePath(project_path_);
   fs::remove(options_path);
-  ui->Options()->num_threads = 2;
-  QAction* save = FindMenuAction(&window, "File", "Save project");
+  ui_->Options()->num_threads = 2;
+  QAction* save = FindMenuAction(window(), "File", "Save project");
   ASSERT_NE(save, nullptr);
   save->trigger();
   glomap::GlobalMapperOptions reread;
@@ -331,8 +392,8 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
   {
     OptionManager stock_reader;
     stock_reader.AddAllOptions();
-    EXPECT_TRUE(stock_reader.Read(project_path));
-    std::ifstream project_file(project_path);
+    EXPECT_TRUE(stock_reader.Read(project_path_));
+    std::ifstream project_file(project_path_);
     const std::string project_text(
         (std::istreambuf_iterator<char>(project_file)),
         std::istreambuf_iterator<char>());
@@ -340,21 +401,19 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
   }
 
   // Any message box during the run is a failure: record and close it.
-  QStringList unexpected_messages;
-  ModalDialogHandler message_boxes(
-      RecordMessageBoxes(&unexpected_messages, /*answer_yes=*/false));
+  RecordMessages(/*answer_yes=*/false);
 
   QElapsedTimer run_timer;
   run_timer.start();
   run->trigger();
-  EXPECT_TRUE(ui->IsRunning());
+  EXPECT_TRUE(ui_->IsRunning());
   EXPECT_FALSE(run->isEnabled()) << "The action must be blocked while running";
   int max_stage_seen = -1;
   QString progress_text;
   bool running_screenshot_saved = false;
   ASSERT_TRUE(WaitUntil(
       [&]() {
-        for (QLabel* label : window.statusBar()->findChildren<QLabel*>()) {
+        for (QLabel* label : window_->statusBar()->findChildren<QLabel*>()) {
           if (label->text().startsWith("Global reconstruction: Stage")) {
             progress_text = label->text();
             max_stage_seen = std::max(
@@ -365,10 +424,10 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
         // One screenshot while bundle adjustment refines the model.
         if (!running_screenshot_saved &&
             progress_text.contains("Bundle adjustment")) {
-          running_screenshot_saved = window.grab().save(
+          running_screenshot_saved = window_->grab().save(
               QString(GLOMAP_BINARY_DIR) + "/gui_screenshot_running.png");
         }
-        return !ui->IsRunning();
+        return !ui_->IsRunning();
       },
       kRunTimeoutMs))
       << "Global reconstruction did not finish";
@@ -377,40 +436,39 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
          run_timer.elapsed() / 1000.0, progress_text.toStdString().c_str());
   EXPECT_GE(max_stage_seen, 2) << "The status bar never showed the stages";
   // After global positioning, after each BA round, at the end.
-  EXPECT_GE(ui->NumModelUpdatesShown(), 3);
-  EXPECT_TRUE(unexpected_messages.isEmpty())
-      << unexpected_messages.join("\n").toStdString();
-  ASSERT_TRUE(ui->LastStatus().ok()) << ui->LastStatus().message();
+  EXPECT_GE(ui_->NumModelUpdatesShown(), 3);
+  EXPECT_TRUE(messages_.isEmpty()) << messages_.join("\n").toStdString();
+  ASSERT_TRUE(ui_->LastStatus().ok()) << ui_->LastStatus().message();
   EXPECT_TRUE(run->isEnabled());
 
   // One model per camera cluster; fountain has one camera and 11 images.
-  const ReconstructionManager& models = ui->Models();
+  const ReconstructionManager& models = ui_->Models();
   ASSERT_GE(models.Size(), 1u);
   const Reconstruction& model = models.Get(0);
   EXPECT_EQ(model.NumRegImages(), 11u);
   EXPECT_GT(model.NumPoints3D(), 1000u);
 
   // The stock statistics window shows real values.
-  QAction* stats = FindMenuAction(&window, "Extras", "Show model statistics");
+  QAction* stats = FindMenuAction(window(), "Extras", "Show model statistics");
   ASSERT_NE(stats, nullptr);
   stats->trigger();
   ProcessEventsFor(100);
-  EXPECT_EQ(StatisticsValue(&window, "Registered images"), "11");
+  EXPECT_EQ(StatisticsValue(window(), "Registered images"), "11");
   const double mean_error =
-      StatisticsValue(&window, "Mean reprojection error").toDouble();
+      StatisticsValue(window(), "Mean reprojection error").toDouble();
   EXPECT_GT(mean_error, 0.0);
   EXPECT_LT(mean_error, 4.0);
-  EXPECT_GT(StatisticsValue(&window, "Mean track length").toDouble(), 2.0);
+  EXPECT_GT(StatisticsValue(window(), "Mean track length").toDouble(), 2.0);
   for (QWidget* widget : QApplication::topLevelWidgets()) {
     if (widget->windowTitle() == "Reconstruction statistics") widget->hide();
   }
 
   // The viewer draws the model (Mesa's software OpenGL under Xvfb).
   ProcessEventsFor(300);
-  QWidget* viewer_widget = window.centralWidget();
-  const QRect viewer_rect(viewer_widget->mapTo(&window, QPoint(0, 0)),
+  QWidget* viewer_widget = window_->centralWidget();
+  const QRect viewer_rect(viewer_widget->mapTo(window(), QPoint(0, 0)),
                           viewer_widget->size());
-  QImage screenshot = window.grab().toImage();
+  QImage screenshot = window_->grab().toImage();
   EXPECT_GT(DrawnFraction(screenshot, viewer_rect), 0.002)
       << "The model viewer shows nothing";
 
@@ -420,7 +478,7 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
   viewer->ChangeFocusDistance(600);
   viewer->ChangePointSize(500);
   ProcessEventsFor(300);
-  const QImage zoomed = window.grab().toImage();
+  const QImage zoomed = window_->grab().toImage();
   if (DrawnFraction(zoomed, viewer_rect) > 0.01) screenshot = zoomed;
   const std::string screenshot_path =
       std::string(GLOMAP_BINARY_DIR) + "/gui_screenshot.png";
@@ -428,7 +486,7 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
   printf("Screenshot: %s\n", screenshot_path.c_str());
 
   // File > Export writes the selected (largest) model.
-  const std::string export_dir = test_dir + "/export";
+  const std::string export_dir = test_dir_ + "/export";
   fs::create_directories(export_dir);
   ModalDialogHandler file_dialogs([&](QWidget* modal) {
     if (QFileDialog* dialog = qobject_cast<QFileDialog*>(modal)) {
@@ -440,7 +498,7 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
     }
     return false;
   });
-  QAction* export_action = FindMenuAction(&window, "File", "Export model");
+  QAction* export_action = FindMenuAction(window(), "File", "Export model");
   ASSERT_NE(export_action, nullptr);
   export_action->trigger();
   ASSERT_TRUE(WaitUntil(
@@ -456,42 +514,19 @@ TEST(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
 // each run stops within a second, leaves no model and the window usable. A
 // synthetic project of 100 images runs long enough that every stage named
 // here is reached while the run goes on.
-TEST(GlobalReconstructionGui, CancelStopsMidRunWithinASecond) {
-  const std::string test_dir =
-      glomap::testing::CreateTestDir("global_reconstruction_gui_cancel");
-  const std::string project_path = WriteSyntheticProject(test_dir, 100);
-  ASSERT_FALSE(HasFailure());
-
-  OptionManager options;
-  std::string import_path;
-  ParseGuiArguments(project_path, &options, &import_path);
-  MainWindow window(options);
-  GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
-  window.show();
-  QStringList messages;
-  ModalDialogHandler message_boxes(
-      RecordMessageBoxes(&messages, /*answer_yes=*/false));
+TEST_F(GlobalReconstructionGui, CancelStopsMidRunWithinASecond) {
+  ASSERT_TRUE(WriteSyntheticProject("global_reconstruction_gui_cancel", 100));
+  OpenProject();
+  RecordMessages(/*answer_yes=*/false);
 
   for (const char* stage :
        {"Relative poses", "Global positioning", "Bundle adjustment"}) {
     SCOPED_TRACE(stage);
-    ASSERT_TRUE(RunUntilStage(ui, &window, stage))
-        << "The run ended before " << stage;
-    QPushButton* cancel = StatusBarButton(&window, "Cancel");
-    ASSERT_NE(cancel, nullptr);
-    QElapsedTimer cancel_timer;
-    cancel_timer.start();
-    cancel->click();
-    ASSERT_TRUE(WaitUntil([&]() { return !ui->IsRunning(); }, 60000));
-    printf("Cancel in stage %s took %lld ms\n", stage, cancel_timer.elapsed());
-    EXPECT_LT(cancel_timer.elapsed(), 1000) << "Cancel is not prompt";
-    EXPECT_TRUE(ui->LastStatus().cancelled()) << ui->LastStatus().message();
-    EXPECT_EQ(ui->Models().Size(), 0u);
-    EXPECT_TRUE(StatusBarText(&window).contains("cancelled"))
-        << StatusBarText(&window).toStdString();
-    EXPECT_TRUE(ui->RunAction()->isEnabled());
+    ASSERT_TRUE(RunUntilStage(stage)) << "The run ended before " << stage;
+    ASSERT_NO_FATAL_FAILURE(CancelPromptly(std::string("in stage ") + stage));
+    EXPECT_TRUE(ui_->RunAction()->isEnabled());
   }
-  EXPECT_TRUE(messages.isEmpty()) << messages.join("\n").toStdString();
+  EXPECT_TRUE(messages_.isEmpty()) << messages_.join("\n").toStdString();
 }
 
 // Seconds shown by the status bar's "Time dd:hh:mm:ss" label.
@@ -508,51 +543,41 @@ int TimeLabelSeconds(const QString& text) {
 // the status bar's "Time" counts; "Pause" holds the run at its next check
 // (neither the stage, the log nor the clock moves) until "Resume", and the
 // run then ends with its models.
-TEST(GlobalReconstructionGui, LogTimeAndPauseFollowTheRun) {
-  const std::string test_dir =
-      glomap::testing::CreateTestDir("global_reconstruction_gui_pause");
-  const std::string project_path = WriteSyntheticProject(test_dir, 60);
-  ASSERT_FALSE(HasFailure());
-  OptionManager options;
-  std::string import_path;
-  ParseGuiArguments(project_path, &options, &import_path);
-  MainWindow window(options);
-  GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
-  window.show();
-  QStringList messages;
-  ModalDialogHandler message_boxes(
-      RecordMessageBoxes(&messages, /*answer_yes=*/false));
+TEST_F(GlobalReconstructionGui, LogTimeAndPauseFollowTheRun) {
+  ASSERT_TRUE(WriteSyntheticProject("global_reconstruction_gui_pause", 60));
+  OpenProject();
+  RecordMessages(/*answer_yes=*/false);
   const QString time_zero = "Time 00:00:00:00";
-  auto time_label = [&]() { return StatusBarLabel(&window, "Time "); };
+  auto time_label = [&]() { return StatusBarLabel(window(), "Time "); };
   auto progress_label = [&]() {
-    return StatusBarLabel(&window, "Global reconstruction");
+    return StatusBarLabel(window(), "Global reconstruction");
   };
 
   QElapsedTimer run_timer;
   run_timer.start();
-  ui->RunAction()->trigger();
-  ASSERT_TRUE(ui->IsRunning());
+  ui_->RunAction()->trigger();
+  ASSERT_TRUE(ui_->IsRunning());
   EXPECT_EQ(time_label(), time_zero);
   ASSERT_TRUE(WaitUntil(
       [&]() {
-        return LogDockText(&window).contains("Stage Database:") ||
-               !ui->IsRunning();
+        return LogDockText(window()).contains("Stage Database:") ||
+               !ui_->IsRunning();
       },
       kRunTimeoutMs));
-  EXPECT_TRUE(ui->IsRunning()) << "The log appeared only after the run";
-  ASSERT_TRUE(
-      WaitUntil([&]() { return time_label() != time_zero || !ui->IsRunning(); },
-                kRunTimeoutMs));
-  ASSERT_TRUE(ui->IsRunning()) << "The clock did not count during the run";
+  EXPECT_TRUE(ui_->IsRunning()) << "The log appeared only after the run";
+  ASSERT_TRUE(WaitUntil(
+      [&]() { return time_label() != time_zero || !ui_->IsRunning(); },
+      kRunTimeoutMs));
+  ASSERT_TRUE(ui_->IsRunning()) << "The clock did not count during the run";
 
   // A second into the run: in "Relative poses", the longest stage here.
-  QPushButton* pause = StatusBarButton(&window, "Pause");
+  QPushButton* pause = StatusBarButton(window(), "Pause");
   ASSERT_NE(pause, nullptr);
   QElapsedTimer pause_timer;
   pause_timer.start();
   pause->click();
   EXPECT_EQ(pause->text(), "Resume");
-  EXPECT_TRUE(ui->IsPaused());
+  EXPECT_TRUE(ui_->IsPaused());
   ASSERT_TRUE(
       WaitUntil([&]() { return progress_label().contains(", paused"); }, 5000))
       << progress_label().toStdString();
@@ -570,30 +595,32 @@ TEST(GlobalReconstructionGui, LogTimeAndPauseFollowTheRun) {
   EXPECT_EQ(TimeLabelSeconds(paused_time),
             progress_time[0].toInt() * 60 + progress_time[1].toInt())
       << paused_time.toStdString();
-  const QString paused_log = LogDockText(&window);
+  const QString paused_log = LogDockText(window());
   ProcessEventsFor(1500);
-  EXPECT_TRUE(ui->IsRunning());
+  EXPECT_TRUE(ui_->IsRunning());
   EXPECT_EQ(progress_label(), paused_progress) << "The run went on";
   EXPECT_EQ(time_label(), paused_time) << "The clock counted the pause";
-  EXPECT_EQ(LogDockText(&window), paused_log) << "The run went on";
+  EXPECT_EQ(LogDockText(window()), paused_log) << "The run went on";
 
   pause->click();
   EXPECT_EQ(pause->text(), "Pause");
-  EXPECT_FALSE(ui->IsPaused());
-  ASSERT_TRUE(WaitUntil([&]() { return !ui->IsRunning(); }, kRunTimeoutMs));
+  EXPECT_FALSE(ui_->IsPaused());
+  ASSERT_TRUE(WaitUntil([&]() { return !ui_->IsRunning(); }, kRunTimeoutMs));
   const qint64 run_ms = run_timer.elapsed();
-  ASSERT_TRUE(ui->LastStatus().ok()) << ui->LastStatus().message();
-  EXPECT_GE(ui->Models().Size(), 1u);
+  ASSERT_TRUE(ui_->LastStatus().ok()) << ui_->LastStatus().message();
+  EXPECT_GE(ui_->Models().Size(), 1u);
   printf("Run with a pause took %.1f s; %s\n", run_ms / 1000.0,
-         StatusBarText(&window).simplified().toStdString().c_str());
+         StatusBarText(window()).simplified().toStdString().c_str());
 
   // Every stage's line, once each (nothing reached the dock twice), in
   // glog's format as the command prints it. The widget shows its queue
   // every 100 ms.
   ASSERT_TRUE(WaitUntil(
-      [&]() { return LogDockText(&window).contains("Global mapper finished"); },
+      [&]() {
+        return LogDockText(window()).contains("Global mapper finished");
+      },
       2000));
-  const QString log = LogDockText(&window);
+  const QString log = LogDockText(window());
   for (const char* stage :
        {"Database", "Relative poses", "Global positioning", "Bundle adjustment",
         "Retriangulation", "Camera clustering"}) {
@@ -613,66 +640,37 @@ TEST(GlobalReconstructionGui, LogTimeAndPauseFollowTheRun) {
   EXPECT_GE(TimeLabelSeconds(final_time), 1);
   EXPECT_LE(TimeLabelSeconds(final_time), run_ms / 1000.0 - 1.4)
       << final_time.toStdString();
-  EXPECT_TRUE(messages.isEmpty()) << messages.join("\n").toStdString();
+  EXPECT_TRUE(messages_.isEmpty()) << messages_.join("\n").toStdString();
 }
 
 // A paused run still stops promptly: Cancel while paused takes under a
 // second, and closing the window while paused does not hang.
-TEST(GlobalReconstructionGui, CancelAndCloseWhilePaused) {
-  const std::string test_dir =
-      glomap::testing::CreateTestDir("global_reconstruction_gui_pause_stop");
-  const std::string project_path = WriteSyntheticProject(test_dir, 60);
-  ASSERT_FALSE(HasFailure());
-  OptionManager options;
-  std::string import_path;
-  ParseGuiArguments(project_path, &options, &import_path);
-  MainWindow window(options);
-  GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
-  window.show();
+TEST_F(GlobalReconstructionGui, CancelAndCloseWhilePaused) {
+  ASSERT_TRUE(
+      WriteSyntheticProject("global_reconstruction_gui_pause_stop", 60));
+  OpenProject();
   // "Do you really want to quit?" -> Yes; any other message is a failure.
-  QStringList messages;
-  ModalDialogHandler message_boxes(
-      RecordMessageBoxes(&messages, /*answer_yes=*/true));
+  RecordMessages(/*answer_yes=*/true);
   // Starts a run and pauses it in its third stage.
   auto run_and_pause = [&]() {
-    ASSERT_TRUE(RunUntilStage(ui, &window, "Relative poses"))
+    ASSERT_TRUE(RunUntilStage("Relative poses"))
         << "The run ended before Relative poses";
-    QPushButton* pause = StatusBarButton(&window, "Pause");
+    QPushButton* pause = StatusBarButton(window(), "Pause");
     ASSERT_NE(pause, nullptr);
     pause->click();
     ASSERT_TRUE(WaitUntil(
-        [&]() { return StatusBarText(&window).contains(", paused"); }, 5000));
+        [&]() { return StatusBarText(window()).contains(", paused"); }, 5000));
   };
 
   run_and_pause();
   if (HasFatalFailure()) return;
-  QPushButton* cancel = StatusBarButton(&window, "Cancel");
-  ASSERT_NE(cancel, nullptr);
-  QElapsedTimer cancel_timer;
-  cancel_timer.start();
-  cancel->click();
-  ASSERT_TRUE(WaitUntil([&]() { return !ui->IsRunning(); }, 60000));
-  printf("Cancel while paused took %lld ms\n", cancel_timer.elapsed());
-  EXPECT_LT(cancel_timer.elapsed(), 1000) << "Cancel is not prompt";
-  EXPECT_TRUE(ui->LastStatus().cancelled()) << ui->LastStatus().message();
-  EXPECT_EQ(ui->Models().Size(), 0u);
-  EXPECT_TRUE(StatusBarText(&window).contains("cancelled"));
-  EXPECT_EQ(StatusBarButton(&window, "Resume"), nullptr);
-  EXPECT_TRUE(messages.isEmpty()) << messages.join("\n").toStdString();
+  ASSERT_NO_FATAL_FAILURE(CancelPromptly("while paused"));
+  EXPECT_EQ(StatusBarButton(window(), "Resume"), nullptr);
+  EXPECT_TRUE(messages_.isEmpty()) << messages_.join("\n").toStdString();
 
   run_and_pause();
   if (HasFatalFailure()) return;
-  QElapsedTimer close_timer;
-  close_timer.start();
-  EXPECT_TRUE(window.close());
-  printf("Closing while paused took %lld ms\n", close_timer.elapsed());
-  EXPECT_LT(close_timer.elapsed(), 3000);
-  EXPECT_FALSE(window.isVisible());
-  ProcessEventsFor(200);
-  EXPECT_FALSE(ui->IsRunning());
-  EXPECT_EQ(ui->Models().Size(), 0u);
-  ASSERT_EQ(messages.size(), 1) << messages.join("\n").toStdString();
-  EXPECT_TRUE(messages.front().contains("quit"));
+  CloseStopsTheRun("Closing while paused", 3000);
 }
 
 // An exception that escapes a thread the GUI does not own (a Ceres worker)
@@ -695,43 +693,22 @@ TEST(GlobalReconstructionGuiDeathTest,
       ::testing::ExitedWithCode(1), "ERROR: Out of memory");
 }
 
-TEST(GlobalReconstructionGui, ClosingTheWindowStopsTheRun) {
-  const std::string test_dir =
-      glomap::testing::CreateTestDir("global_reconstruction_gui_close");
-  const std::string project_path = WriteSyntheticProject(test_dir, 60);
-  ASSERT_FALSE(HasFailure());
-  OptionManager options;
-  std::string import_path;
-  ParseGuiArguments(project_path, &options, &import_path);
-  MainWindow window(options);
-  GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
-  window.show();
-
+TEST_F(GlobalReconstructionGui, ClosingTheWindowStopsTheRun) {
+  ASSERT_TRUE(WriteSyntheticProject("global_reconstruction_gui_close", 60));
+  OpenProject();
   // "Do you really want to quit?" -> Yes.
-  QStringList questions;
-  ModalDialogHandler message_boxes(
-      RecordMessageBoxes(&questions, /*answer_yes=*/true));
+  RecordMessages(/*answer_yes=*/true);
 
-  ASSERT_TRUE(RunUntilStage(ui, &window, "Relative poses"))
+  ASSERT_TRUE(RunUntilStage("Relative poses"))
       << "The run ended before Relative poses";
-  QElapsedTimer close_timer;
-  close_timer.start();
-  EXPECT_TRUE(window.close());
-  printf("Closing took %lld ms\n", close_timer.elapsed());
-  EXPECT_LT(close_timer.elapsed(), 10000);
-  EXPECT_FALSE(window.isVisible());
-  ProcessEventsFor(200);
-  EXPECT_FALSE(ui->IsRunning());
-  EXPECT_EQ(ui->Models().Size(), 0u);
-  ASSERT_EQ(questions.size(), 1);
-  EXPECT_TRUE(questions.front().contains("quit"));
+  CloseStopsTheRun("Closing", 10000);
 }
 
 // The options dialog shows every GlobalMapper.* option with its default
 // (among them those that were constants in the code before issue 13), and
 // refuses a value out of range with the command line's message, which names
 // the option and its range.
-TEST(GlobalReconstructionGui, OptionsDialogShowsDefaultsAndNamesBadValues) {
+TEST_F(GlobalReconstructionGui, OptionsDialogShowsDefaultsAndNamesBadValues) {
   glomap::GlobalMapperOptions options;
   GlobalMapperOptionsDialog dialog(nullptr, &options, {});
   dialog.show();
@@ -796,39 +773,27 @@ TEST(GlobalReconstructionGui, OptionsDialogShowsDefaultsAndNamesBadValues) {
   EXPECT_EQ(options.bundle_adjustment.max_num_images_dense_schur, 100);
 }
 
-TEST(GlobalReconstructionGui, ErrorShowsTheCommandLineMessage) {
-  const std::string fountain_dir = FountainDir();
-  if (fountain_dir.empty()) {
+TEST_F(GlobalReconstructionGui, ErrorShowsTheCommandLineMessage) {
+  if (!WriteFountainProject("global_reconstruction_gui_error")) {
     GTEST_SKIP() << "Shared dataset fountain-P11 not found.";
   }
-  const std::string test_dir =
-      glomap::testing::CreateTestDir("global_reconstruction_gui_error");
-  const std::string project_path = WriteProject(test_dir, fountain_dir);
   {
     // Images and features but no matches.
-    Database database(test_dir + "/database.db");
+    Database database(test_dir_ + "/database.db");
     database.ClearMatches();
     database.ClearTwoViewGeometries();
   }
-  OptionManager options;
-  std::string import_path;
-  ParseGuiArguments(project_path, &options, &import_path);
-  MainWindow window(options);
-  GlobalReconstructionUi* ui = InstallGlobalReconstruction(&window);
-  window.show();
-
-  QStringList messages;
-  ModalDialogHandler message_boxes(
-      RecordMessageBoxes(&messages, /*answer_yes=*/false, /*accept=*/true));
-  ui->RunAction()->trigger();
-  ASSERT_TRUE(WaitUntil([&]() { return !ui->IsRunning(); }, 120000));
-  ASSERT_TRUE(WaitUntil([&]() { return !messages.isEmpty(); }, 5000));
-  EXPECT_FALSE(ui->LastStatus().ok());
-  EXPECT_FALSE(ui->LastStatus().cancelled());
-  printf("Message box: %s\n", messages.front().toStdString().c_str());
-  EXPECT_EQ(messages.front().toStdString(), ui->LastStatus().message());
-  EXPECT_EQ(ui->Models().Size(), 0u);
-  EXPECT_TRUE(ui->RunAction()->isEnabled());
+  OpenProject();
+  RecordMessages(/*answer_yes=*/false, /*accept=*/true);
+  ui_->RunAction()->trigger();
+  ASSERT_TRUE(WaitUntil([&]() { return !ui_->IsRunning(); }, 120000));
+  ASSERT_TRUE(WaitUntil([&]() { return !messages_.isEmpty(); }, 5000));
+  EXPECT_FALSE(ui_->LastStatus().ok());
+  EXPECT_FALSE(ui_->LastStatus().cancelled());
+  printf("Message box: %s\n", messages_.front().toStdString().c_str());
+  EXPECT_EQ(messages_.front().toStdString(), ui_->LastStatus().message());
+  EXPECT_EQ(ui_->Models().Size(), 0u);
+  EXPECT_TRUE(ui_->RunAction()->isEnabled());
 }
 
 }  // namespace

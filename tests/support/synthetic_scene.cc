@@ -22,6 +22,7 @@
 #include "base/pose.h"
 #include "estimators/two_view_geometry.h"
 #include "glomap/parallel_for.h"
+#include "tests/support/camera_rotation.h"
 #include "util/random.h"
 
 namespace glomap {
@@ -221,13 +222,7 @@ struct Pose {
 // COLMAP's camera frame: x right, y down, z along the optical axis.
 Pose LookAlong(const Eigen::Vector3d& center, const Eigen::Vector3d& forward,
                const Eigen::Vector3d& up, double roll_rad) {
-  const Eigen::Vector3d z = forward.normalized();
-  const Eigen::Vector3d x = z.cross(up).normalized();
-  const Eigen::Vector3d y = z.cross(x);
-  Eigen::Matrix3d R;
-  R.row(0) = x;
-  R.row(1) = y;
-  R.row(2) = z;
+  const Eigen::Matrix3d R = testing::CamFromWorldLookingAlong(forward, up);
   Pose pose;
   pose.cam_from_world_R =
       Eigen::AngleAxisd(roll_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
