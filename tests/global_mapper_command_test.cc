@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "base/gps.h"
 #include "base/reconstruction.h"
 #include "tests/support/synthetic_scene.h"
 #include "tests/support/test_paths.h"
@@ -78,7 +79,11 @@ TEST(GlobalMapperCommand, HelpListsEveryGroup) {
         "--GlobalMapper.min_num_matches", "--GlobalMapper.random_seed",
         "--GlobalMapper.ra_max_rotation_error_deg",
         "--GlobalMapper.gp_loss_scale", "--GlobalMapper.ba_num_rounds",
-        "--GlobalMapper.tri_min_angle_deg"}) {
+        "--GlobalMapper.tri_min_angle_deg",
+        "--GlobalMapper.use_position_priors", "--GlobalMapper.prior_is_gps",
+        "--GlobalMapper.prior_use_ecef", "--GlobalMapper.prior_position_std_m",
+        "--GlobalMapper.prior_loss_scale",
+        "--GlobalMapper.prior_max_error_std"}) {
     EXPECT_NE(output.find(key), std::string::npos) << key;
   }
 }
@@ -111,6 +116,9 @@ TEST(GlobalMapperCommand, ReconstructsAndKeepsDatabaseUnchanged) {
     EXPECT_NE(entry.path().filename().string().rfind(".", 0), 0u)
         << entry.path();
   }
+  // Without position priors the frame is arbitrary: no georegistration.
+  EXPECT_FALSE(fs::exists(output_path + "/0/georegistration.txt"));
+  EXPECT_EQ(log.find("georegistered"), std::string::npos) << log;
 }
 
 TEST(GlobalMapperCommand, StockColmapReadsOurModel) {
@@ -227,6 +235,11 @@ TEST(GlobalMapperCommand, BadOptionValueNamesKeyAndRange) {
        "1.5"},
       {"--GlobalMapper.min_residuals_per_ceres_thread 0",
        "GlobalMapper.min_residuals_per_ceres_thread must be >= 1, is 0"},
+      // Issue 12: the position-prior keys have no stage prefix.
+      {"--GlobalMapper.prior_position_std_m 0",
+       "GlobalMapper.prior_position_std_m must be > 0, is 0"},
+      {"--GlobalMapper.prior_loss_scale -2",
+       "GlobalMapper.prior_loss_scale must be > 0, is -2"},
   };
   for (const auto& [args, message] : cases) {
     std::string log;
@@ -836,6 +849,160 @@ TEST(GlobalMapperCommand, OutOfMemoryIsOneErrorLine) {
   }
   EXPECT_TRUE(succeeded);
   EXPECT_GT(num_out_of_memory, 0u);
+}
+
+// Issue 12: priors in a different frame than claimed (metric values, here
+// a projected frame with eastings and northings in the hundred thousands,
+// read as GPS) are one error line that says which option to change.
+TEST(GlobalMapperCommand, MetricPriorsReadAsGpsAreOneErrorLine) {
+  SyntheticSceneOptions options;
+  options.num_images = 12;
+  options.prior_position_noise_m = 0.2;
+  const Project project = MakeProject("command_priors_not_gps", options);
+  ExecuteSql(project.database_path,
+             "UPDATE images SET prior_tx = prior_tx + 500000, "
+             "prior_ty = prior_ty + 5200000;");
+  const std::string output_path = project.dir + "/sparse";
+  std::string log;
+  int code = RunCommand(MapperCommand(project, output_path) +
+                            " --GlobalMapper.use_position_priors 1"
+                            " --GlobalMapper.prior_is_gps 1",
+                        &log);
+  ExpectOneLineError("metric priors as GPS", code, log,
+                     "the priors look like metric values: set "
+                     "GlobalMapper.prior_is_gps 0",
+                     output_path);
+  EXPECT_NE(log.find("The position prior of image image0001.png (id 1)"),
+            std::string::npos)
+      << log;
+
+  // Without use_position_priors they are not used, and the log says so.
+  code = RunCommand(
+      MapperCommand(project, output_path) + " --GlobalMapper.prior_is_gps 1",
+      &log);
+  EXPECT_EQ(code, 0) << log;
+  EXPECT_NE(log.find("12 images have position priors; set "
+                     "--GlobalMapper.use_position_priors 1 to use them."),
+            std::string::npos)
+      << log;
+  EXPECT_FALSE(fs::exists(output_path + "/0/georegistration.txt"));
+}
+
+// Key-value lines of a georegistration.txt (comments skipped).
+std::map<std::string, std::string> ReadKeyValues(const std::string& path) {
+  std::map<std::string, std::string> values;
+  std::ifstream file(path);
+  std::string line;
+  while (std::getline(file, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    const size_t space = line.find(' ');
+    values[line.substr(0, space)] = line.substr(space + 1);
+  }
+  return values;
+}
+
+// Issue 12: infinite or partly unset priors in the database are no reader
+// error: those images are solved without a prior, a warning counts them,
+// and the other priors still georegister the model (metric: in their own
+// frame).
+TEST(GlobalMapperCommand, NonFinitePriorsAreLeftOutWithAWarning) {
+  SyntheticSceneOptions options;
+  options.num_images = 12;
+  options.prior_position_noise_m = 0.1;
+  const Project project = MakeProject("command_priors_non_finite", options);
+  // SQLite reads 1e999 as infinity.
+  ExecuteSql(project.database_path,
+             "UPDATE images SET prior_tx = 1e999 WHERE image_id = 2;"
+             "UPDATE images SET prior_ty = NULL WHERE image_id = 3;");
+  const std::string output_path = project.dir + "/sparse";
+  std::string log;
+  const int code = RunCommand(MapperCommand(project, output_path) +
+                                  " --GlobalMapper.use_position_priors 1",
+                              &log);
+  ExpectModelWithWarning("non-finite priors", code, log,
+                         "2 images have a position prior that is not finite",
+                         output_path);
+  const std::map<std::string, std::string> geo =
+      ReadKeyValues(output_path + "/0/georegistration.txt");
+  ASSERT_EQ(geo.count("frame"), 1u) << log;
+  EXPECT_EQ(geo.at("frame"), "metric");
+  EXPECT_EQ(geo.at("priors_used"), "10");
+  EXPECT_NE(log.find("Model 0 is georegistered: frame metric"),
+            std::string::npos)
+      << log;
+}
+
+// Issue 12: with GPS priors the model comes out in metres in an ENU frame
+// around the first image's prior, says so in the log and in
+// OUT/0/georegistration.txt, and stock COLMAP still reads the folder.
+TEST(GlobalMapperCommand, GpsPriorsGiveAGeoregisteredModel) {
+  SyntheticSceneOptions options;
+  options.num_images = 12;
+  options.random_seed = 3;
+  options.prior_position_noise_m = 0.1;
+  options.prior_as_gps = true;
+  Project project;
+  project.dir = CreateTestDir("command_gps_priors");
+  project.database_path = project.dir + "/database.db";
+  project.image_path = project.dir + "/images";
+  fs::create_directories(project.image_path);
+  colmap::Reconstruction ground_truth;
+  SyntheticSceneShapes shapes;
+  const Status status = WriteSyntheticScene(options, project.database_path,
+                                            &ground_truth, &shapes);
+  ASSERT_TRUE(status.ok()) << status.message();
+  ASSERT_EQ(shapes.prior_positions.size(), 12u);
+
+  const std::string output_path = project.dir + "/sparse";
+  std::string log;
+  ASSERT_EQ(RunCommand(MapperCommand(project, output_path) +
+                           " --GlobalMapper.use_position_priors 1"
+                           " --GlobalMapper.prior_is_gps 1"
+                           " --GlobalMapper.prior_position_std_m 0.1",
+                       &log),
+            0)
+      << log;
+  EXPECT_NE(log.find("Model 0 is georegistered: frame ENU, origin latitude "),
+            std::string::npos)
+      << log;
+  const std::string geo_path = output_path + "/0/georegistration.txt";
+  ASSERT_TRUE(fs::exists(geo_path)) << log;
+  const std::map<std::string, std::string> geo = ReadKeyValues(geo_path);
+  EXPECT_EQ(geo.at("frame"), "ENU");
+  // The origin is image 1's prior: its true centre plus 0.1 m noise,
+  // converted to GPS around the scene's origin.
+  const Eigen::Vector3d origin_lla =
+      colmap::GPSTransform(colmap::GPSTransform::WGS84)
+          .ENUToEll({shapes.prior_positions[0]}, options.prior_gps_origin.x(),
+                    options.prior_gps_origin.y(), options.prior_gps_origin.z())
+          .front();
+  EXPECT_NEAR(std::stod(geo.at("origin_latitude_deg")), origin_lla.x(), 1e-9);
+  EXPECT_NEAR(std::stod(geo.at("origin_longitude_deg")), origin_lla.y(), 1e-9);
+  EXPECT_NEAR(std::stod(geo.at("origin_altitude_m")), origin_lla.z(), 1e-6);
+  EXPECT_EQ(geo.at("priors_used"), "12");
+
+  // Camera centres in metres, ENU around image 1's prior: the true centres
+  // moved by that prior (the tangent planes of the two origins, 10 m apart,
+  // differ by far less than a millimetre here).
+  colmap::Reconstruction model;
+  model.Read(output_path + "/0");
+  ASSERT_EQ(model.NumRegImages(), 12u);
+  for (const colmap::image_t image_id : model.RegImageIds()) {
+    const Eigen::Vector3d expected =
+        ground_truth.Image(image_id).ProjectionCenter() -
+        shapes.prior_positions[0];
+    EXPECT_LT((model.Image(image_id).ProjectionCenter() - expected).norm(), 1.0)
+        << "image " << image_id;
+  }
+
+  const std::string stock = "/usr/bin/colmap";
+  if (fs::exists(stock)) {
+    ASSERT_EQ(RunCommand(stock + " model_analyzer --path " + output_path + "/0",
+                         &log),
+              0)
+        << log;
+    EXPECT_NE(log.find("Registered images: 12"), std::string::npos) << log;
+  }
 }
 
 }  // namespace

@@ -15,9 +15,12 @@
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
+#include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <memory>
 #include <mutex>
+#include <sstream>
 #include <system_error>
 #include <thread>
 #include <utility>
@@ -164,6 +167,45 @@ std::string CheckWrittenModel(const Reconstruction& model,
   return "";
 }
 
+// The file beside a model solved with position priors that says its frame
+// (stock COLMAP 3.8 ignores other files in a model folder).
+constexpr char kGeoregistrationFile[] = "georegistration.txt";
+
+// Writes `text` to `path` and checks that all of it arrived; "" if so.
+std::string WriteTextFile(const fs::path& path, const std::string& text) {
+  {
+    std::ofstream file(path, std::ios::trunc);
+    file << text;
+    file.close();
+    if (!file) {
+      return path.filename().string() +
+             " could not be written: is the disk full?";
+    }
+  }
+  std::error_code error;
+  const uintmax_t written = fs::file_size(path, error);
+  if (error || written != text.size()) {
+    return path.filename().string() + " is incomplete: is the disk full?";
+  }
+  return "";
+}
+
+// The log line of a georegistered model.
+std::string GeoregistrationSummary(const glomap::Georegistration& geo) {
+  std::ostringstream text;
+  text << "frame " << geo.frame;
+  if (geo.frame == "ENU") {
+    text << std::setprecision(12) << ", origin latitude " << geo.origin_lla.x()
+         << " deg, longitude " << geo.origin_lla.y() << " deg, altitude "
+         << geo.origin_lla.z() << " m";
+  } else if (geo.frame == "metric") {
+    text << " (the priors' own frame)";
+  }
+  text << "; " << geo.num_priors_used << " priors used, "
+       << geo.rejected_prior_image_names.size() << " rejected";
+  return text.str();
+}
+
 // Whether `dir` is a model folder of an earlier run: named by a number and
 // holding a COLMAP model.
 bool IsNumberedModelDir(const fs::path& dir) {
@@ -291,9 +333,12 @@ std::string InterruptedMessage(int signal) {
 // half-written one: everything is written to a temporary folder inside
 // OUTPUT first and checked, then each model folder is swapped in with
 // rename(2). Model folders OUTPUT/<k> of an earlier run with more models are
-// removed, so that OUTPUT holds exactly this run's models. On an error or an
-// interrupt (`signal` set), OUTPUT is left as it was.
+// removed, so that OUTPUT holds exactly this run's models. A georegistered
+// run (position priors) writes georegistration.txt into every model folder,
+// checked like the rest. On an error or an interrupt (`signal` set), OUTPUT
+// is left as it was.
 std::string WriteModelsAtomically(const ReconstructionManager& models,
+                                  const glomap::Georegistration& geo,
                                   const std::string& output_path,
                                   const OptionManager& options,
                                   const SignalWatcher& signals,
@@ -337,8 +382,11 @@ std::string WriteModelsAtomically(const ReconstructionManager& models,
       fs::create_directory(model_dir);
       models.Get(k).WriteBinary(model_dir.string());
       options.Write((model_dir / "project.ini").string());
-      const std::string incomplete =
-          CheckWrittenModel(models.Get(k), model_dir);
+      std::string incomplete = CheckWrittenModel(models.Get(k), model_dir);
+      if (incomplete.empty() && geo.georegistered) {
+        incomplete =
+            WriteTextFile(model_dir / kGeoregistrationFile, geo.ToText());
+      }
       if (!incomplete.empty()) {
         guard->Undo();
         return "Writing model " + std::to_string(k) + " failed: " + incomplete +
@@ -494,8 +542,9 @@ int RunGlobalMapperOrThrow(int argc, char** argv, SignalWatcher& signals,
   if (reconstruction_manager.Size() == 0) {
     return Fail("Nothing was reconstructed.");
   }
+  const glomap::Georegistration& geo = controller.GetGeoregistration();
   const std::string error = WriteModelsAtomically(
-      reconstruction_manager, output_path, options, signals, output_guard);
+      reconstruction_manager, geo, output_path, options, signals, output_guard);
   if (!error.empty()) {
     return Fail(error, signals.Signal() != 0 && !output_guard->committed
                            ? 128 + signals.Signal()
@@ -506,6 +555,12 @@ int RunGlobalMapperOrThrow(int argc, char** argv, SignalWatcher& signals,
     std::cout << "Model " << k << ": " << model.NumRegImages() << " images, "
               << model.NumPoints3D() << " points -> " << output_path << "/" << k
               << std::endl;
+    if (geo.georegistered) {
+      std::cout << "Model " << k
+                << " is georegistered: " << GeoregistrationSummary(geo)
+                << " -> " << output_path << "/" << k << "/"
+                << kGeoregistrationFile << std::endl;
+    }
   }
   return EXIT_SUCCESS;
 }

@@ -62,6 +62,28 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Do not check the camera poses against the structure (not "
         "recommended: a wrongly placed camera then goes unnoticed)");
 
+  b.Group("Position priors");
+  auto& pp = o->position_priors;
+  b.Add("use_position_priors", &pp.use_position_priors,
+        "Solve with the images' position priors (images.prior_tx/ty/tz: GPS "
+        "or known positions): the model comes out in metres in their frame "
+        "(georegistration.txt beside it)");
+  b.Add("prior_is_gps", &pp.prior_is_gps,
+        "The priors are latitude, longitude [deg] and altitude [m] (WGS84), "
+        "as COLMAP's feature extractor stores EXIF GPS; solved in east-north-"
+        "up metres around the first image's prior. Off: metric positions [m]");
+  b.Add("prior_use_ecef", &pp.prior_use_ecef,
+        "With prior_is_gps: solve in earth-centred, earth-fixed metres "
+        "instead of east-north-up");
+  b.Add("prior_position_std_m", &pp.prior_position_std_m,
+        "Standard deviation of a prior, each axis [m]");
+  b.Add("prior_loss_scale", &pp.prior_loss_scale,
+        "Cauchy loss scale of a prior's error: farther off, it counts less "
+        "and less [standard deviations]");
+  b.Add("prior_max_error_std", &pp.prior_max_error_std,
+        "After global positioning, priors farther from their camera are "
+        "rejected and named in the log [standard deviations]");
+
   b.Group("View graph calibration");
   auto& vgc = o->view_graph_calibration;
   b.Add("vgc_min_focal_ratio", &vgc.min_focal_ratio,
@@ -213,6 +235,9 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("gp_max_num_images_eigen_sparse", &gp.max_num_images_eigen_sparse,
         "Below this many images, solve with Eigen's sparse Cholesky; above, "
         "with CHOLMOD and a Schur complement");
+  b.Add("gp_prior_max_num_iterations", &gp.prior_max_num_iterations,
+        "With position priors: iterations of the second solve, in the prior "
+        "frame with the prior term");
 
   b.Group("Pose verification");
   auto& pv = o->pose_verification;

@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <set>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -16,6 +17,7 @@
 #include "glomap/ceres_threads.h"
 #include "glomap/options_check.h"
 #include "glomap/track_filters.h"
+#include "glomap/union_find.h"
 #include "optim/bundle_adjustment.h"
 #include "util/logging.h"
 #include "util/threading.h"
@@ -62,6 +64,138 @@ Gauge ChooseGauge(const colmap::Reconstruction& reconstruction,
   baseline_in_cam2.cwiseAbs().maxCoeff(&gauge.scale_tvec_idx);
   return gauge;
 }
+
+// The gauges of a solve. Without priors, the one above. With priors (issue
+// 12), each part of the problem that shares no 3D point with the rest (a
+// connected component of images through their points) is held in place by
+// its own priors when they fix a similarity (three or more, not collinear),
+// and gets no fixed pose and no fixed scale: the priors' frame is the
+// solution. A part with fewer priors keeps the gauge above (its pose and
+// scale as they are, i.e. as global positioning's alignment left them in the
+// prior frame), its priors only pulling its shape.
+std::vector<Gauge> ChooseGauges(const colmap::Reconstruction& reconstruction,
+                                const std::vector<colmap::image_t>& image_ids,
+                                const PositionPriorTerm* priors) {
+  if (priors == nullptr || priors->empty()) {
+    return {ChooseGauge(reconstruction, image_ids)};
+  }
+  std::unordered_map<colmap::image_t, size_t> index_of_id;
+  for (size_t i = 0; i < image_ids.size(); ++i) index_of_id[image_ids[i]] = i;
+  UnionFind<size_t> components(image_ids.size());
+  for (const auto& [point3D_id, point3D] : reconstruction.Points3D()) {
+    const std::vector<colmap::TrackElement>& elements =
+        point3D.Track().Elements();
+    for (size_t k = 1; k < elements.size(); ++k) {
+      const auto first = index_of_id.find(elements[0].image_id);
+      const auto other = index_of_id.find(elements[k].image_id);
+      if (first != index_of_id.end() && other != index_of_id.end()) {
+        components.Union(first->second, other->second);
+      }
+    }
+  }
+  // Components by their root (the smallest index: deterministic order).
+  std::map<size_t, std::vector<colmap::image_t>> component_images;
+  for (size_t i = 0; i < image_ids.size(); ++i) {
+    component_images[components.Find(i)].push_back(image_ids[i]);
+  }
+  std::vector<Gauge> gauges;
+  for (const auto& [root, component] : component_images) {
+    std::vector<Eigen::Vector3d> component_priors;
+    for (const colmap::image_t image_id : component) {
+      const auto prior = priors->center_in_frame.find(image_id);
+      if (prior != priors->center_in_frame.end()) {
+        component_priors.push_back(prior->second);
+      }
+    }
+    if (component.size() >= 2 && !PriorsFixSimilarity(component_priors)) {
+      gauges.push_back(ChooseGauge(reconstruction, component));
+    }
+  }
+  return gauges;
+}
+
+bool IsFixedPoseImage(const std::vector<Gauge>& gauges,
+                      colmap::image_t image_id) {
+  for (const Gauge& gauge : gauges) {
+    if (gauge.fixed_pose_image_id == image_id) return true;
+  }
+  return false;
+}
+
+// The gauge whose scale coordinate is in the image's translation, or null.
+const Gauge* ScaleGaugeOfImage(const std::vector<Gauge>& gauges,
+                               colmap::image_t image_id) {
+  for (const Gauge& gauge : gauges) {
+    if (gauge.scale_image_id == image_id) return &gauge;
+  }
+  return nullptr;
+}
+
+// (c - p) / std with the camera centre c = -R^T t of a rotation-fixed
+// image, on its translation block; linear in t, so the analytic Jacobian
+// -R^T / std is exact.
+class FixedRotationPriorCostFunction : public ceres::SizedCostFunction<3, 3> {
+ public:
+  FixedRotationPriorCostFunction(const Eigen::Matrix3d& cam_from_world,
+                                 const Eigen::Vector3d& prior, double std_m)
+      : world_from_cam_(cam_from_world.transpose()),
+        prior_(prior),
+        inv_std_(1 / std_m) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const Eigen::Map<const Eigen::Vector3d> tvec(parameters[0]);
+    Eigen::Map<Eigen::Vector3d> residual(residuals);
+    residual = inv_std_ * (-(world_from_cam_ * tvec) - prior_);
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> jacobian(
+          jacobians[0]);
+      jacobian = -inv_std_ * world_from_cam_;
+    }
+    return true;
+  }
+
+ private:
+  const Eigen::Matrix3d world_from_cam_;
+  const Eigen::Vector3d prior_;
+  const double inv_std_;
+};
+
+// (c - p) / std with c = -R(q)^T t on a pose block [qw, qx, qy, qz, tx, ty,
+// tz] (see PoseCostFunction).
+class PosePriorCostFunction {
+ public:
+  PosePriorCostFunction(const Eigen::Vector3d& prior, double std_m)
+      : prior_x_(prior(0)),
+        prior_y_(prior(1)),
+        prior_z_(prior(2)),
+        inv_std_(1 / std_m) {}
+
+  static ceres::CostFunction* Create(const Eigen::Vector3d& prior,
+                                     double std_m) {
+    return new ceres::AutoDiffCostFunction<PosePriorCostFunction, 3, 7>(
+        new PosePriorCostFunction(prior, std_m));
+  }
+
+  template <typename T>
+  bool operator()(const T* const pose, T* residuals) const {
+    // The inverse of a unit quaternion is its conjugate.
+    const T world_from_cam[4] = {pose[0], -pose[1], -pose[2], -pose[3]};
+    T rotated_tvec[3];
+    ceres::UnitQuaternionRotatePoint(world_from_cam, pose + 4, rotated_tvec);
+    residuals[0] = T(inv_std_) * (-rotated_tvec[0] - T(prior_x_));
+    residuals[1] = T(inv_std_) * (-rotated_tvec[1] - T(prior_y_));
+    residuals[2] = T(inv_std_) * (-rotated_tvec[2] - T(prior_z_));
+    return true;
+  }
+
+ private:
+  // Plain doubles: a Vector3d member would need aligned allocation.
+  const double prior_x_;
+  const double prior_y_;
+  const double prior_z_;
+  const double inv_std_;
+};
 
 // Registered images that observe at least one 3D point, sorted by id.
 std::vector<colmap::image_t> ImagesWithPoints(
@@ -259,7 +393,8 @@ double ScaledFunctionTolerance(const GlobalBundleAdjustmentOptions& options,
 // solver does not (see ChooseLinearSolver).
 Status Solve(const GlobalBundleAdjustmentOptions& options,
              const colmap::BundleAdjustmentOptions& ba_options,
-             const std::vector<colmap::image_t>& image_ids, const Gauge& gauge,
+             const std::vector<colmap::image_t>& image_ids,
+             const std::vector<Gauge>& gauges, const PositionPriorTerm* priors,
              bool fix_rotations, colmap::Reconstruction* reconstruction,
              int* num_iterations) {
   ceres::Problem::Options problem_options;
@@ -267,6 +402,13 @@ Status Solve(const GlobalBundleAdjustmentOptions& options,
   ceres::Problem problem(problem_options);
   const std::unique_ptr<ceres::LossFunction> loss_function(
       ba_options.CreateLossFunction());
+  // Cauchy on the prior residual's norm in standard deviations: reprojection
+  // residuals are in pixels, so with about 1 px of keypoint noise both terms
+  // are in units of their own noise and weigh each other as they should.
+  std::unique_ptr<ceres::LossFunction> prior_loss;
+  if (priors != nullptr && !priors->empty()) {
+    prior_loss = std::make_unique<ceres::CauchyLoss>(priors->loss_scale_std);
+  }
 
   // Pose blocks of the joint solve; std::map keeps their addresses stable.
   std::map<colmap::image_t, PoseBlock> poses;
@@ -314,15 +456,31 @@ Status Solve(const GlobalBundleAdjustmentOptions& options,
       }
       has_residuals = true;
     }
+    if (has_residuals && prior_loss != nullptr) {
+      const auto prior = priors->center_in_frame.find(image_id);
+      if (prior != priors->center_in_frame.end()) {
+        if (fix_rotations) {
+          problem.AddResidualBlock(new FixedRotationPriorCostFunction(
+                                       rotation, prior->second, priors->std_m),
+                                   prior_loss.get(), tvec_data);
+        } else {
+          problem.AddResidualBlock(
+              PosePriorCostFunction::Create(prior->second, priors->std_m),
+              prior_loss.get(), pose_data);
+        }
+      }
+    }
     if (has_residuals && !fix_rotations) {
-      if (image_id == gauge.fixed_pose_image_id) {
+      const Gauge* scale_gauge = ScaleGaugeOfImage(gauges, image_id);
+      if (IsFixedPoseImage(gauges, image_id)) {
         problem.SetParameterBlockConstant(pose_data);
-      } else if (image_id == gauge.scale_image_id) {
+      } else if (scale_gauge != nullptr) {
         problem.SetManifold(
-            pose_data, new ceres::ProductManifold<ceres::QuaternionManifold,
-                                                  ceres::SubsetManifold>(
-                           ceres::QuaternionManifold(),
-                           ceres::SubsetManifold(3, {gauge.scale_tvec_idx})));
+            pose_data,
+            new ceres::ProductManifold<ceres::QuaternionManifold,
+                                       ceres::SubsetManifold>(
+                ceres::QuaternionManifold(),
+                ceres::SubsetManifold(3, {scale_gauge->scale_tvec_idx})));
       } else {
         problem.SetManifold(
             pose_data,
@@ -338,11 +496,13 @@ Status Solve(const GlobalBundleAdjustmentOptions& options,
   }
 
   if (fix_rotations) {
-    problem.SetParameterBlockConstant(
-        reconstruction->Image(gauge.fixed_pose_image_id).Tvec().data());
-    colmap::SetSubsetManifold(
-        3, {gauge.scale_tvec_idx}, &problem,
-        reconstruction->Image(gauge.scale_image_id).Tvec().data());
+    for (const Gauge& gauge : gauges) {
+      problem.SetParameterBlockConstant(
+          reconstruction->Image(gauge.fixed_pose_image_id).Tvec().data());
+      colmap::SetSubsetManifold(
+          3, {gauge.scale_tvec_idx}, &problem,
+          reconstruction->Image(gauge.scale_image_id).Tvec().data());
+    }
   }
 
   for (const colmap::camera_t camera_id : camera_ids) {
@@ -436,7 +596,8 @@ Status GlobalBundleAdjustmentOptions::Check(const std::string& prefix) const {
 Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
                                  colmap::Reconstruction* reconstruction,
                                  const Interrupt& interrupt,
-                                 const std::function<void()>& on_round_done) {
+                                 const std::function<void()>& on_round_done,
+                                 const PositionPriorTerm* priors) {
   if (const Status check = options.Check(); !check.ok()) {
     return Status::Error("Invalid global bundle adjustment options: " +
                          check.message());
@@ -470,7 +631,8 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
           "Bundle adjustment needs at least two registered images with 3D "
           "points.");
     }
-    const Gauge gauge = ChooseGauge(*reconstruction, image_ids);
+    const std::vector<Gauge> gauges =
+        ChooseGauges(*reconstruction, image_ids, priors);
 
     // Rotations are held fixed only in the first solve, right after global
     // positioning, where the positions are coarse and the rotations from
@@ -479,20 +641,34 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
     int num_fixed_rotation_iterations = 0;
     if (!options.skip_fixed_rotation_stage && first_round) {
       const Status status =
-          Solve(options, ba_options, image_ids, gauge, /*fix_rotations=*/true,
-                reconstruction, &num_fixed_rotation_iterations);
+          Solve(options, ba_options, image_ids, gauges, priors,
+                /*fix_rotations=*/true, reconstruction,
+                &num_fixed_rotation_iterations);
       if (!status.ok()) return status;
       if (interrupt.IsStopped()) return Status::Cancelled();
     }
     int num_joint_iterations = 0;
     if (!options.skip_joint_stage) {
       const Status status =
-          Solve(options, ba_options, image_ids, gauge, /*fix_rotations=*/false,
-                reconstruction, &num_joint_iterations);
+          Solve(options, ba_options, image_ids, gauges, priors,
+                /*fix_rotations=*/false, reconstruction, &num_joint_iterations);
       if (!status.ok()) return status;
       if (interrupt.IsStopped()) return Status::Cancelled();
     }
-    reconstruction->Normalize();
+    // With priors the frame is theirs, in metres: normalising would undo it.
+    // Instead the frame takes the step along the 7 directions that only the
+    // priors see, which the solves leave mostly untaken (see
+    // FitSimilarityToPriors; measured on KITTI_sequence_1 with 2 m priors:
+    // mean absolute camera error 0.77 m without it, 0.45 m, as a similarity
+    // fitted afterwards, with it). A part with its own gauge keeps its frame.
+    if (priors == nullptr || priors->empty()) {
+      reconstruction->Normalize();
+    } else if (gauges.empty()) {
+      PriorAlignment frame_step;
+      if (FitSimilarityToPriors(*reconstruction, *priors, &frame_step)) {
+        TransformReconstruction(frame_step, reconstruction);
+      }
+    }
     first_round = false;
 
     // Filter with a tightening threshold. If few tracks change, tighten

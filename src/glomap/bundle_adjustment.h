@@ -13,6 +13,7 @@
 
 #include "base/reconstruction.h"
 #include "glomap/ceres_threads.h"
+#include "glomap/prior_alignment.h"
 #include "glomap/status.h"
 
 namespace glomap {
@@ -127,9 +128,18 @@ struct GlobalBundleAdjustmentOptions {
 // Returns Cancelled if `interrupt` fires (the reconstruction then holds the
 // state of the last finished Ceres iteration and is consistent), an error if
 // there are fewer than two registered images with points or a solve fails.
+//
+// With position priors (`priors` not null nor empty, in the reconstruction's
+// frame; issue 12) both solves of every round add the prior term (c - p) /
+// std on the camera centre c = -R^T t of each image listed, under a Cauchy
+// loss; the priors fix the gauge (no pose or scale held, except in a part of
+// the model that shares no point with the rest and has too few priors of its
+// own to fix a similarity), and the scene is never normalized, so the model
+// stays in the prior frame, in metres.
 Status RunGlobalBundleAdjustment(
     const GlobalBundleAdjustmentOptions& options,
     colmap::Reconstruction* reconstruction, const Interrupt& interrupt = {},
-    const std::function<void()>& on_round_done = {});
+    const std::function<void()>& on_round_done = {},
+    const PositionPriorTerm* priors = nullptr);
 
 }  // namespace glomap

@@ -2,11 +2,14 @@
 
 #include <algorithm>
 #include <iomanip>
+#include <iterator>
 #include <sstream>
 #include <unordered_set>
 
 #include "base/pose.h"
+#include "base/similarity_transform.h"
 #include "glomap/options_check.h"
+#include "glomap/prior_alignment.h"
 #include "glomap/track_filters.h"
 #include "util/logging.h"
 #include "util/misc.h"
@@ -177,6 +180,109 @@ GlobalMapperOptions WithGeneralOptionsPropagated(GlobalMapperOptions options) {
   return options;
 }
 
+// The priors' mean, taken out of the frame the solves work in and put back
+// in the output: ECEF or projected coordinates (millions of metres) would
+// otherwise cost the solves most of their precision in t = -R c and in
+// every point. Whole metres, so that the shift itself is exact.
+Eigen::Vector3d PriorFrameOffset(const PositionPriorTerm& priors) {
+  if (priors.empty()) return Eigen::Vector3d::Zero();
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& [image_id, center] : priors.center_in_frame) mean += center;
+  mean /= static_cast<double>(priors.center_in_frame.size());
+  return mean.array().round().matrix();
+}
+
+// "Rejected N position priors (farther than X m from their camera): a, b".
+void LogRejectedPriors(const colmap::Reconstruction& model,
+                       const std::vector<colmap::image_t>& rejected_image_ids,
+                       double max_error_m) {
+  if (rejected_image_ids.empty()) return;
+  LOG(WARNING) << "Rejected " << rejected_image_ids.size()
+               << " position priors (farther than " << max_error_m
+               << " m from their camera): "
+               << ImageNames(model, rejected_image_ids);
+}
+
+// Rejects the priors of `all_priors` farther than the threshold from their
+// camera in `model`, re-admits the others, and says what changed. Keeps the
+// previous choice if the new one would not fix a similarity.
+void RecheckPriors(const colmap::Reconstruction& model,
+                   const PositionPriorTerm& all_priors,
+                   std::vector<colmap::image_t>* rejected_image_ids,
+                   PositionPriorTerm* used_priors) {
+  const std::vector<colmap::image_t> rejected = ImagesFartherFromPrior(
+      model, all_priors.center_in_frame, all_priors.MaxErrorM());
+  if (rejected == *rejected_image_ids) return;
+  PositionPriorTerm used = all_priors;
+  for (const colmap::image_t image_id : rejected) {
+    used.center_in_frame.erase(image_id);
+  }
+  std::vector<Eigen::Vector3d> registered_priors;
+  for (const auto& [image_id, center] : used.center_in_frame) {
+    if (model.IsImageRegistered(image_id)) registered_priors.push_back(center);
+  }
+  if (!PriorsFixSimilarity(registered_priors)) return;
+  std::vector<colmap::image_t> readmitted;
+  std::set_difference(rejected_image_ids->begin(), rejected_image_ids->end(),
+                      rejected.begin(), rejected.end(),
+                      std::back_inserter(readmitted));
+  std::vector<colmap::image_t> newly_rejected;
+  std::set_difference(rejected.begin(), rejected.end(),
+                      rejected_image_ids->begin(), rejected_image_ids->end(),
+                      std::back_inserter(newly_rejected));
+  LOG(INFO) << "Position priors checked again after bundle adjustment: "
+            << readmitted.size() << " re-admitted (within "
+            << all_priors.MaxErrorM() << " m of their camera now), "
+            << newly_rejected.size() << " newly rejected.";
+  *rejected_image_ids = rejected;
+  *used_priors = std::move(used);
+  LogRejectedPriors(model, *rejected_image_ids, all_priors.MaxErrorM());
+}
+
+// Logs how far the used priors are from their cameras in the output models
+// (in the output frame: `priors` minus `offset`), and names those beyond the
+// rejection threshold, which the robust loss down-weighted. Returns the
+// number of used priors whose image is registered.
+size_t ReportFinalPriorErrors(const std::vector<colmap::Reconstruction>& models,
+                              const PositionPriorTerm& priors,
+                              const Eigen::Vector3d& offset) {
+  std::vector<double> errors_m;
+  std::vector<std::string> far_names;
+  for (const colmap::Reconstruction& model : models) {
+    std::vector<colmap::image_t> image_ids = model.RegImageIds();
+    std::sort(image_ids.begin(), image_ids.end());
+    for (const colmap::image_t image_id : image_ids) {
+      const auto prior = priors.center_in_frame.find(image_id);
+      if (prior == priors.center_in_frame.end()) continue;
+      const double error_m =
+          (model.Image(image_id).ProjectionCenter() - (prior->second + offset))
+              .norm();
+      errors_m.push_back(error_m);
+      if (!(error_m <= priors.MaxErrorM())) {
+        far_names.push_back(model.Image(image_id).Name());
+      }
+    }
+  }
+  if (errors_m.empty()) return 0;
+  std::vector<double> sorted = errors_m;
+  std::sort(sorted.begin(), sorted.end());
+  LOG(INFO) << "Position priors: camera to prior distance median "
+            << sorted[sorted.size() / 2] << " m, max " << sorted.back()
+            << " m over " << sorted.size() << " images.";
+  if (!far_names.empty()) {
+    std::ostringstream names;
+    for (size_t i = 0; i < far_names.size(); ++i) {
+      names << (i > 0 ? ", " : "") << far_names[i];
+    }
+    LOG(WARNING) << far_names.size() << " position priors are farther than "
+                 << priors.MaxErrorM()
+                 << " m from their camera after bundle adjustment "
+                    "(down-weighted by the robust loss): "
+                 << names.str();
+  }
+  return errors_m.size();
+}
+
 }  // namespace
 
 Status GlobalMapperOptions::Check() const {
@@ -190,6 +296,8 @@ Status GlobalMapperOptions::Check() const {
   check.MinusOneOrAtLeast("num_threads", num_threads, 1);
   check.AtLeast("min_residuals_per_ceres_thread",
                 min_residuals_per_ceres_thread, 1);
+  // Position priors: keys without a stage prefix (fixed by issue 12).
+  check.Add(position_priors.Check("GlobalMapper."));
   const GlobalMapperOptions stages = WithGeneralOptionsPropagated(*this);
   check.Add(stages.view_graph_calibration.Check("GlobalMapper.vgc_"));
   check.Add(stages.relative_pose.Check("GlobalMapper.rp_"));
@@ -211,6 +319,7 @@ Status GlobalMapper::Run(const std::string& database_path,
                          std::vector<colmap::Reconstruction>* models,
                          const GlobalMapperCallbacks& callbacks) {
   summary_ = GlobalMapperSummary();
+  georegistration_ = Georegistration();
   models->clear();
   // The stages check their options too, but only this names them as the
   // user set them (GlobalMapper.<key>).
@@ -235,6 +344,29 @@ Status GlobalMapper::Run(const std::string& database_path,
                          {"pairs", view_graph.NumPairs()}}));
   }
   if (interrupt.IsStopped()) return Status::Cancelled();
+
+  // Position priors (issue 12), validated and in one metric frame; empty
+  // when off or unusable (the free solve, as without priors).
+  PositionPriorTerm prior_term;
+  // All priors, also those rejected (they are checked again after bundle
+  // adjustment).
+  PositionPriorTerm all_priors;
+  Eigen::Vector3d prior_frame_offset = Eigen::Vector3d::Zero();
+  {
+    PositionPriors priors;
+    const Status status =
+        PreparePositionPriors(options_.position_priors, *work, &priors);
+    if (!status.ok()) return status;
+    georegistration_ = priors.georegistration;
+    georegistration_.georegistered = false;
+    prior_term = MakePositionPriorTerm(priors, options_.position_priors);
+    prior_frame_offset = PriorFrameOffset(prior_term);
+    for (auto& [image_id, center] : prior_term.center_in_frame) {
+      center -= prior_frame_offset;
+    }
+    all_priors = prior_term;
+  }
+  std::vector<colmap::image_t> rejected_prior_ids;
 
   // 2. View-graph calibration of focal lengths without a prior (Sec. 3).
   if (!options_.skip_view_graph_calibration) {
@@ -331,14 +463,36 @@ Status GlobalMapper::Run(const std::string& database_path,
   // initialisation (Sec. 3, the bounded ray objective).
   {
     StageTimer stage("Global positioning", 5, &summary_, callbacks);
-    const Status status = RunGlobalPositioning(options_.global_positioning,
-                                               tracks, work, interrupt);
+    GlobalPositioningPriorSummary prior_summary;
+    const Status status = RunGlobalPositioning(
+        options_.global_positioning, tracks, work, interrupt,
+        prior_term.empty() ? nullptr : &prior_term, &prior_summary);
     if (!status.ok()) return status;
     tracks.Clear();
-    work->Normalize();
-    stage.Finish(Counts({{"images_registered", work->NumRegImages()},
-                         {"points", work->NumPoints3D()},
-                         {"observations", work->ComputeNumObservations()}}));
+    std::string counts =
+        Counts({{"images_registered", work->NumRegImages()},
+                {"points", work->NumPoints3D()},
+                {"observations", work->ComputeNumObservations()}});
+    if (prior_summary.georegistered) {
+      // The model is in the prior frame, in metres: no normalisation. The
+      // rejected priors are left out of every later solve.
+      rejected_prior_ids = prior_summary.rejected_image_ids;
+      for (const colmap::image_t image_id : rejected_prior_ids) {
+        prior_term.center_in_frame.erase(image_id);
+      }
+      georegistration_.georegistered = true;
+      LogRejectedPriors(*work, rejected_prior_ids, prior_term.MaxErrorM());
+      counts += ", " + Counts({{"priors_used", prior_summary.num_priors_used},
+                               {"priors_rejected",
+                                prior_summary.rejected_image_ids.size()}});
+    } else {
+      // No priors, or they could not fix the frame (global positioning
+      // said why): the free solve, as without priors.
+      prior_term.center_in_frame.clear();
+      georegistration_.num_priors_used = 0;
+      work->Normalize();
+    }
+    stage.Finish(counts);
     model_changed();
   }
   if (interrupt.IsStopped()) return Status::Cancelled();
@@ -379,7 +533,8 @@ Status GlobalMapper::Run(const std::string& database_path,
   if (!options_.skip_bundle_adjustment) {
     StageTimer stage("Bundle adjustment", 7, &summary_, callbacks);
     const Status status =
-        RunGlobalBundleAdjustment(ba_options, work, interrupt, model_changed);
+        RunGlobalBundleAdjustment(ba_options, work, interrupt, model_changed,
+                                  prior_term.empty() ? nullptr : &prior_term);
     if (!status.ok()) return status;
     stage.Finish(Counts({{"images_registered", work->NumRegImages()},
                          {"points", work->NumPoints3D()},
@@ -387,11 +542,20 @@ Status GlobalMapper::Run(const std::string& database_path,
   }
   if (interrupt.IsStopped()) return Status::Cancelled();
 
+  // The priors judged again on the adjusted model: global positioning's
+  // solution can still be bent where its cameras are far from good priors
+  // (it is a coarse solve, stopped after a few iterations with the priors),
+  // and bundle adjustment with the other priors straightens it.
+  if (georegistration_.georegistered && !options_.skip_bundle_adjustment) {
+    RecheckPriors(*work, all_priors, &rejected_prior_ids, &prior_term);
+  }
+
   // 9. Retriangulation on the database matches, then bundle adjustment.
   if (!options_.skip_retriangulation) {
     StageTimer stage("Retriangulation", 8, &summary_, callbacks);
     const Status status =
-        Retriangulate(retriangulation_options, view_graph, work, interrupt);
+        Retriangulate(retriangulation_options, view_graph, work, interrupt,
+                      prior_term.empty() ? nullptr : &prior_term);
     if (!status.ok()) return status;
     stage.Finish(Counts({{"images_registered", work->NumRegImages()},
                          {"points", work->NumPoints3D()},
@@ -426,7 +590,14 @@ Status GlobalMapper::Run(const std::string& database_path,
       if (static_cast<int>(cluster.size()) < options_.min_model_size) continue;
       colmap::Reconstruction model =
           clusters.size() == 1 ? *work : ExtractCluster(*work, cluster);
-      model.Normalize();
+      if (georegistration_.georegistered) {
+        // In the prior frame, in metres: only the offset taken out for the
+        // solve is put back.
+        model.Transform(colmap::SimilarityTransform3(
+            1, colmap::ComposeIdentityQuaternion(), prior_frame_offset));
+      } else {
+        model.Normalize();
+      }
       UpdatePointErrors(&model);
       if (!options_.image_path.empty())
         ExtractColors(options_.image_path, &model);
@@ -441,6 +612,19 @@ Status GlobalMapper::Run(const std::string& database_path,
     size_t num_registered = 0;
     for (const auto& model : *models) num_registered += model.NumRegImages();
     summary_.num_registered_images = num_registered;
+    if (georegistration_.georegistered) {
+      for (const colmap::image_t image_id : rejected_prior_ids) {
+        georegistration_.rejected_prior_image_names.push_back(
+            work->Image(image_id).Name());
+      }
+      georegistration_.num_priors_used =
+          ReportFinalPriorErrors(*models, prior_term, prior_frame_offset);
+      LOG(INFO) << "The model is georegistered: frame "
+                << georegistration_.frame << ", in metres, "
+                << georegistration_.num_priors_used << " position priors used, "
+                << georegistration_.rejected_prior_image_names.size()
+                << " rejected.";
+    }
     stage.Finish(Counts({{"models", models->size()},
                          {"images_registered", num_registered},
                          {"images", work->NumImages()}}));

@@ -14,6 +14,7 @@
 #include "glomap/ceres_threads.h"
 #include "glomap/database_reader.h"
 #include "glomap/global_positioning.h"
+#include "glomap/position_priors.h"
 #include "glomap/pose_verification.h"
 #include "glomap/relative_pose.h"
 #include "glomap/retriangulation.h"
@@ -40,6 +41,9 @@ struct GlobalMapperOptions {
   GlobalBundleAdjustmentOptions bundle_adjustment;
   RetriangulationOptions retriangulation;
   CameraClusteringOptions clustering;
+  // Camera position priors (GPS or metric) in global positioning and bundle
+  // adjustment; off by default.
+  PositionPriorOptions position_priors;
 
   // Stage switches (for experiments; every stage runs by default).
   bool skip_view_graph_calibration = false;
@@ -113,10 +117,16 @@ class GlobalMapper {
              const GlobalMapperCallbacks& callbacks = {});
 
   const GlobalMapperSummary& Summary() const { return summary_; }
+  // The frame of the models of the last Run: georegistered when position
+  // priors were used (written beside each model as georegistration.txt).
+  const Georegistration& GetGeoregistration() const {
+    return georegistration_;
+  }
 
  private:
   GlobalMapperOptions options_;
   GlobalMapperSummary summary_;
+  Georegistration georegistration_;
 };
 
 }  // namespace glomap

@@ -77,6 +77,7 @@ Status GlobalMapperController::RunPipeline() {
   std::vector<colmap::Reconstruction> models;
   Status status = mapper.Run(database_path_, work, &models, callbacks);
   summary_ = mapper.Summary();
+  georegistration_ = mapper.GetGeoregistration();
 
   // Replace the working model by the final models, largest first; on
   // failure or cancel, leave no partial model behind.

@@ -33,6 +33,9 @@ class GlobalMapperController : public colmap::Thread {
   // thread.
   Status RunStatus() const;
   const GlobalMapperSummary& Summary() const { return summary_; }
+  // The frame of the models of the last run (see
+  // GlobalMapper::GetGeoregistration). Valid once the thread has finished.
+  const Georegistration& GetGeoregistration() const { return georegistration_; }
 
   std::string StageName() const;
   int StageIndex() const;
@@ -46,6 +49,7 @@ class GlobalMapperController : public colmap::Thread {
   const std::string database_path_;
   colmap::ReconstructionManager* reconstruction_manager_;
   GlobalMapperSummary summary_;
+  Georegistration georegistration_;
 
   mutable std::mutex mutex_;
   Status status_;

@@ -12,6 +12,7 @@
 
 #include "base/camera.h"
 #include "base/image.h"
+#include "base/pose.h"
 #include "glomap/ceres_interrupt.h"
 #include "glomap/ceres_threads.h"
 #include "glomap/options_check.h"
@@ -58,6 +59,11 @@ class RayResidual : public ceres::SizedCostFunction<3, 3, 3, 1> {
   const Eigen::Vector3d ray_in_world_;
 };
 
+// Floor of the ray noise that weights the prior term (radians, 1e-3 px at
+// f = 1000 px): noise-free rays would otherwise give the priors no weight at
+// all, and the solve no gauge.
+constexpr double kMinRayNoise = 1e-6;
+
 struct Observation {
   size_t image_idx;  // Into the sorted registered image ids.
   size_t point_idx;  // Into the problem's points.
@@ -71,12 +77,197 @@ bool AllFinite(const std::vector<Eigen::Vector3d>& vectors) {
   return true;
 }
 
+// (c - p) / std on a camera centre c with prior p (issue 12); linear, so the
+// analytic Jacobian is exact.
+class CenterPriorResidual : public ceres::SizedCostFunction<3, 3> {
+ public:
+  CenterPriorResidual(const Eigen::Vector3d& prior, double std_m)
+      : prior_(prior), inv_std_(1 / std_m) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    for (int i = 0; i < 3; ++i) {
+      residuals[i] = inv_std_ * (parameters[0][i] - prior_[i]);
+    }
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      for (int i = 0; i < 9; ++i) jacobians[0][i] = 0;
+      jacobians[0][0] = jacobians[0][4] = jacobians[0][8] = inv_std_;
+    }
+    return true;
+  }
+
+ private:
+  const Eigen::Vector3d prior_;
+  const double inv_std_;
+};
+
+// What the solve reads: the observations and their unit rays in world
+// coordinates.
+struct PositioningData {
+  const std::vector<Observation>& observations;
+  const std::vector<size_t>& num_observations_per_image;
+  std::vector<Eigen::Vector3d> rays_in_world;
+  // Whether the observation's camera has a prior focal length.
+  std::vector<bool> calibrated;
+};
+
+// The unknowns: one centre per registered image (in image-id order), one
+// point per usable track, one scale per observation.
+struct PositioningState {
+  std::vector<Eigen::Vector3d> centers;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> scales;
+};
+
+// Position priors of the images of the problem: (index into the sorted
+// registered images, prior centre), with their weights: the residual
+// (c - p) / std_m under a Cauchy loss of scale loss_scale_std, the cost
+// multiplied by weight.
+struct PriorResiduals {
+  const std::vector<std::pair<size_t, Eigen::Vector3d>>& image_priors;
+  double std_m;
+  double loss_scale_std;
+  double weight;
+};
+
+// Median over the observations of the ray residual's norm |v - d (X - c)|
+// at the current state, divided by its median for an isotropic Gaussian
+// error of one unit per axis across the ray (sqrt(2 ln 2)): the ray
+// residuals' noise per axis, robust to the wrong matches.
+double RayNoisePerAxis(const PositioningData& data,
+                       const PositioningState& state) {
+  std::vector<double> norms;
+  norms.reserve(data.observations.size());
+  for (size_t k = 0; k < data.observations.size(); ++k) {
+    const Observation& obs = data.observations[k];
+    norms.push_back((data.rays_in_world[k] -
+                     state.scales[k] * (state.points[obs.point_idx] -
+                                        state.centers[obs.image_idx]))
+                        .norm());
+  }
+  if (norms.empty()) return 0;
+  std::nth_element(norms.begin(), norms.begin() + norms.size() / 2,
+                   norms.end());
+  return norms[norms.size() / 2] / std::sqrt(2 * std::log(2.0));
+}
+
+// One Levenberg-Marquardt solve of the positioning problem from `state`.
+// Without priors the gauge (translation left to the damping, scale fixed by
+// one scale at 1) is as in the reference; with them the priors fix it, and
+// every scale is free.
+Status SolvePositions(const GlobalPositioningOptions& options,
+                      const PositioningData& data, const PriorResiduals* priors,
+                      const Interrupt& interrupt, PositioningState* state,
+                      ceres::Solver::Summary* summary) {
+  const std::vector<Observation>& observations = data.observations;
+  std::vector<Eigen::Vector3d>& centers = state->centers;
+  std::vector<Eigen::Vector3d>& points = state->points;
+  std::vector<double>& scales = state->scales;
+
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  ceres::HuberLoss calibrated_loss(options.loss_scale);
+  ceres::ScaledLoss uncalibrated_loss(&calibrated_loss,
+                                      options.uncalibrated_weight,
+                                      ceres::DO_NOT_TAKE_OWNERSHIP);
+  for (size_t k = 0; k < observations.size(); ++k) {
+    const Observation& obs = observations[k];
+    problem.AddResidualBlock(
+        new RayResidual(data.rays_in_world[k]),
+        data.calibrated[k] ? static_cast<ceres::LossFunction*>(&calibrated_loss)
+                           : &uncalibrated_loss,
+        centers[obs.image_idx].data(), points[obs.point_idx].data(),
+        &scales[k]);
+  }
+  std::unique_ptr<ceres::LossFunction> prior_loss;
+  if (priors != nullptr) {
+    prior_loss = std::make_unique<ceres::ScaledLoss>(
+        new ceres::CauchyLoss(priors->loss_scale_std), priors->weight,
+        ceres::TAKE_OWNERSHIP);
+    for (const auto& [image_idx, prior] : priors->image_priors) {
+      problem.AddResidualBlock(new CenterPriorResidual(prior, priors->std_m),
+                               prior_loss.get(), centers[image_idx].data());
+    }
+  }
+
+  // Gauge: the problem is invariant to translation (left to the damping) and
+  // to scale, fixed by holding one scale at 1; priors fix both.
+  for (size_t k = 0; k < scales.size(); ++k) {
+    if (!options.optimize_scales || (k == 0 && priors == nullptr)) {
+      problem.SetParameterBlockConstant(&scales[k]);
+    } else {
+      problem.SetParameterLowerBound(&scales[k], 0, options.min_scale);
+    }
+  }
+  if (!options.optimize_points) {
+    for (Eigen::Vector3d& point : points) {
+      problem.SetParameterBlockConstant(point.data());
+    }
+  }
+  size_t num_problem_images = 0;
+  for (size_t i = 0; i < centers.size(); ++i) {
+    if (data.num_observations_per_image[i] == 0) continue;
+    ++num_problem_images;
+    if (!options.optimize_positions) {
+      problem.SetParameterBlockConstant(centers[i].data());
+    }
+  }
+
+  // Schur elimination order: scales (each in one residual), points, centres
+  // (as the reference).
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  for (double& scale : scales) ordering->AddElementToGroup(&scale, 0);
+  for (Eigen::Vector3d& point : points) {
+    ordering->AddElementToGroup(point.data(), 1);
+  }
+  for (size_t i = 0; i < centers.size(); ++i) {
+    if (data.num_observations_per_image[i] > 0) {
+      ordering->AddElementToGroup(centers[i].data(), 2);
+    }
+  }
+
+  ceres::Solver::Options solver_options;
+  if (static_cast<int>(num_problem_images) <
+      options.max_num_images_eigen_sparse) {
+    // Measured on 40 and 200 images: Eigen's simplicial Cholesky on the full
+    // normal equations (its AMD ordering eliminates the scales, then the
+    // points, like the Schur complement) beats CHOLMOD behind SPARSE_SCHUR by
+    // 1.5-3x, whose supernodal overhead does not pay off at this size.
+    solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    solver_options.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
+  } else {
+    solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+    solver_options.linear_solver_ordering = ordering;
+  }
+  solver_options.max_num_iterations = options.max_num_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.num_threads =
+      CeresNumThreads(options.num_threads, problem.NumResidualBlocks(),
+                      options.min_residuals_per_ceres_thread);
+  solver_options.logging_type = ceres::SILENT;
+  InterruptCallback interrupt_callback(interrupt);
+  solver_options.callbacks.push_back(&interrupt_callback);
+  ceres::Solve(solver_options, &problem, summary);
+
+  if (interrupt.IsStopped()) return Status::Cancelled();
+  if (!summary->IsSolutionUsable()) {
+    return Status::Error("Global positioning: solver failed: " +
+                         summary->message);
+  }
+  if (!AllFinite(centers) || !AllFinite(points)) {
+    return Status::Error("Global positioning: non-finite solution.");
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status GlobalPositioningOptions::Check(const std::string& prefix) const {
   OptionChecker check(prefix);
   check.GreaterThan("loss_scale", loss_scale, 0);
   check.AtLeast("max_num_iterations", max_num_iterations, 0);
+  check.AtLeast("prior_max_num_iterations", prior_max_num_iterations, 0);
   check.AtLeast("function_tolerance", function_tolerance, 0);
   check.GreaterThan("init_box_size", init_box_size, 0);
   check.GreaterThan("uncalibrated_weight", uncalibrated_weight, 0);
@@ -97,10 +288,22 @@ Status GlobalPositioningOptions::Check(const std::string& prefix) const {
 Status RunGlobalPositioning(const GlobalPositioningOptions& options,
                             const TrackStore& tracks,
                             colmap::Reconstruction* reconstruction,
-                            const Interrupt& interrupt) {
+                            const Interrupt& interrupt,
+                            const PositionPriorTerm* priors,
+                            GlobalPositioningPriorSummary* prior_summary_out) {
   if (const Status check = options.Check(); !check.ok()) {
     return Status::Error("Invalid global positioning options: " +
                          check.message());
+  }
+  if (priors != nullptr && !priors->empty() &&
+      !(priors->std_m > 0 && priors->loss_scale_std > 0 &&
+        priors->max_error_std > 0)) {
+    return Status::Error(
+        "Global positioning: the position priors' standard deviation, loss "
+        "scale and rejection threshold must be > 0.");
+  }
+  if (prior_summary_out != nullptr) {
+    *prior_summary_out = GlobalPositioningPriorSummary();
   }
   colmap::Timer timer;
   timer.Start();
@@ -168,113 +371,144 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
     const double z = uniform(rng);
     return Eigen::Vector3d(x, y, z);
   };
-  std::vector<Eigen::Vector3d> centers(image_ids.size());
+  PositioningState state;
+  state.centers.resize(image_ids.size());
   for (size_t i = 0; i < image_ids.size(); ++i) {
-    centers[i] = options.optimize_positions
-                     ? random_vector()
-                     : reconstruction->Image(image_ids[i]).ProjectionCenter();
+    state.centers[i] =
+        options.optimize_positions
+            ? random_vector()
+            : reconstruction->Image(image_ids[i]).ProjectionCenter();
   }
-  std::vector<Eigen::Vector3d> points(num_points);
-  for (Eigen::Vector3d& point : points) point = random_vector();
-  std::vector<double> scales(observations.size(), 1.0);
+  state.points.resize(num_points);
+  for (Eigen::Vector3d& point : state.points) point = random_vector();
+  state.scales.assign(observations.size(), 1.0);
 
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  ceres::HuberLoss calibrated_loss(options.loss_scale);
-  ceres::ScaledLoss uncalibrated_loss(&calibrated_loss,
-                                      options.uncalibrated_weight,
-                                      ceres::DO_NOT_TAKE_OWNERSHIP);
-  for (size_t k = 0; k < observations.size(); ++k) {
-    const Observation& obs = observations[k];
+  PositioningData data{observations, num_observations_per_image, {}, {}};
+  data.rays_in_world.reserve(observations.size());
+  data.calibrated.reserve(observations.size());
+  for (const Observation& obs : observations) {
     const colmap::Image& image =
         reconstruction->Image(image_ids[obs.image_idx]);
     const colmap::Camera& camera = reconstruction->Camera(image.CameraId());
-    const Eigen::Vector3d ray_in_world =
+    data.rays_in_world.push_back(
         world_from_cam_rotations[obs.image_idx] *
         camera.ImageToWorld(image.Point2D(obs.point2D_idx).XY())
             .homogeneous()
-            .normalized();
-    problem.AddResidualBlock(
-        new RayResidual(ray_in_world),
-        camera.HasPriorFocalLength()
-            ? static_cast<ceres::LossFunction*>(&calibrated_loss)
-            : &uncalibrated_loss,
-        centers[obs.image_idx].data(), points[obs.point_idx].data(),
-        &scales[k]);
+            .normalized());
+    data.calibrated.push_back(camera.HasPriorFocalLength());
   }
 
-  // Gauge: the problem is invariant to translation (left to the damping) and
-  // to scale, fixed by holding one scale at 1.
-  for (size_t k = 0; k < scales.size(); ++k) {
-    if (!options.optimize_scales || k == 0) {
-      problem.SetParameterBlockConstant(&scales[k]);
-    } else {
-      problem.SetParameterLowerBound(&scales[k], 0, options.min_scale);
-    }
-  }
-  if (!options.optimize_points) {
-    for (Eigen::Vector3d& point : points) {
-      problem.SetParameterBlockConstant(point.data());
-    }
-  }
-  for (size_t i = 0; i < image_ids.size(); ++i) {
-    if (num_observations_per_image[i] > 0 && !options.optimize_positions) {
-      problem.SetParameterBlockConstant(centers[i].data());
-    }
-  }
-
-  // Schur elimination order: scales (each in one residual), points, centres
-  // (as the reference).
-  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-  for (double& scale : scales) ordering->AddElementToGroup(&scale, 0);
-  for (Eigen::Vector3d& point : points) {
-    ordering->AddElementToGroup(point.data(), 1);
-  }
-  for (size_t i = 0; i < image_ids.size(); ++i) {
-    if (num_observations_per_image[i] > 0) {
-      ordering->AddElementToGroup(centers[i].data(), 2);
-    }
-  }
-
-  ceres::Solver::Options solver_options;
-  if (static_cast<int>(num_problem_images) <
-      options.max_num_images_eigen_sparse) {
-    // Measured on 40 and 200 images: Eigen's simplicial Cholesky on the full
-    // normal equations (its AMD ordering eliminates the scales, then the
-    // points, like the Schur complement) beats CHOLMOD behind SPARSE_SCHUR by
-    // 1.5-3x, whose supernodal overhead does not pay off at this size.
-    solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    solver_options.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
-  } else {
-    solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
-    solver_options.linear_solver_ordering = ordering;
-  }
-  solver_options.max_num_iterations = options.max_num_iterations;
-  solver_options.function_tolerance = options.function_tolerance;
-  solver_options.num_threads =
-      CeresNumThreads(options.num_threads, problem.NumResidualBlocks(),
-                      options.min_residuals_per_ceres_thread);
-  solver_options.logging_type = ceres::SILENT;
-  InterruptCallback interrupt_callback(interrupt);
-  solver_options.callbacks.push_back(&interrupt_callback);
   ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
-
-  if (interrupt.IsStopped()) return Status::Cancelled();
-  if (!summary.IsSolutionUsable()) {
-    return Status::Error("Global positioning: solver failed: " +
-                         summary.message);
+  if (const Status status =
+          SolvePositions(options, data, nullptr, interrupt, &state, &summary);
+      !status.ok()) {
+    return status;
   }
-  if (!AllFinite(centers) || !AllFinite(points)) {
-    return Status::Error("Global positioning: non-finite solution.");
+
+  // With priors: the free solution into the prior frame by a robust
+  // similarity, then solved again from there with the prior term (issue 12).
+  // The free solve from a random start is what makes global positioning
+  // robust; the second solve starts at its solution, so it only has to bend
+  // it where the priors disagree with the rays (scale drift, a bent
+  // trajectory), which no similarity can do.
+  GlobalPositioningPriorSummary prior_summary;
+  const bool use_priors = priors != nullptr && !priors->empty();
+  if (use_priors) {
+    std::unordered_map<colmap::image_t, Eigen::Vector3d> problem_centers;
+    for (size_t i = 0; i < image_ids.size(); ++i) {
+      if (num_observations_per_image[i] > 0) {
+        problem_centers[image_ids[i]] = state.centers[i];
+      }
+    }
+    PriorAlignment alignment;
+    const Status aligned = AlignCentersToPriors(
+        problem_centers, priors->center_in_frame, priors->MaxErrorM(),
+        options.random_seed, &alignment);
+    if (!aligned.ok()) {
+      LOG(WARNING) << aligned.message()
+                   << " The position priors are not used: the model stays "
+                      "in an arbitrary frame.";
+    } else {
+      prior_summary.georegistered = true;
+      // x' = s R x + t: rays turn with the frame, and d (X - c) keeps its
+      // length with d' = d / s.
+      for (Eigen::Vector3d& center : state.centers) {
+        center = alignment.Apply(center);
+      }
+      for (Eigen::Vector3d& point : state.points) {
+        point = alignment.Apply(point);
+      }
+      for (double& scale : state.scales) scale /= alignment.scale;
+      for (Eigen::Vector3d& ray : data.rays_in_world) {
+        ray = alignment.rotation * ray;
+      }
+      for (Eigen::Matrix3d& rotation : world_from_cam_rotations) {
+        rotation = alignment.rotation * rotation;
+      }
+      // Every registered image turns with the frame (those outside the
+      // problem are deregistered below, but keep a consistent pose).
+      for (size_t i = 0; i < image_ids.size(); ++i) {
+        reconstruction->Image(image_ids[i])
+            .SetQvec(colmap::RotationMatrixToQuaternion(
+                world_from_cam_rotations[i].transpose()));
+      }
+      // Every prior takes part, under the Cauchy loss: one that the
+      // alignment found too far may be right where the free solution is
+      // bent, and a wrong one pulls its camera with a bounded force against
+      // hundreds of rays.
+      std::vector<std::pair<size_t, Eigen::Vector3d>> image_priors;
+      for (size_t i = 0; i < image_ids.size(); ++i) {
+        const auto prior = priors->center_in_frame.find(image_ids[i]);
+        if (num_observations_per_image[i] > 0 &&
+            prior != priors->center_in_frame.end()) {
+          image_priors.emplace_back(i, prior->second);
+        }
+      }
+      // The ray residual is about the angle between observed and predicted
+      // ray (radians), with noise of about keypoint noise / focal length.
+      // Each term counts in units of its own noise, as in bundle
+      // adjustment, so the prior cost is weighted by the ray noise squared:
+      // with weight 1 the priors (metres of noise) would outweigh the rays
+      // (a milliradian of noise) a million times, and each camera would be
+      // pulled a good part of the prior noise towards its prior, bending
+      // the rays beyond the angular filter (measured on a forward sequence
+      // with 3 m prior noise: 87% of the observations filtered).
+      const double ray_noise =
+          std::max(RayNoisePerAxis(data, state), kMinRayNoise);
+      PriorResiduals prior_residuals{image_priors, priors->std_m,
+                                     priors->loss_scale_std,
+                                     ray_noise * ray_noise};
+      ceres::Solver::Summary prior_solve;
+      GlobalPositioningOptions prior_options = options;
+      prior_options.max_num_iterations = options.prior_max_num_iterations;
+      if (const Status status =
+              SolvePositions(prior_options, data, &prior_residuals, interrupt,
+                             &state, &prior_solve);
+          !status.ok()) {
+        return status;
+      }
+      LOG(INFO) << "Global positioning with position priors: aligned to "
+                << alignment.inlier_image_ids.size() << " of "
+                << alignment.inlier_image_ids.size() +
+                       alignment.outlier_image_ids.size()
+                << " priors within " << priors->MaxErrorM() << " m (scale "
+                << alignment.scale << "), ray noise " << ray_noise << ", then "
+                << prior_solve.iterations.size() << " iterations ("
+                << ceres::TerminationTypeToString(prior_solve.termination_type)
+                << ") with the prior term, cost " << prior_solve.initial_cost
+                << " -> " << prior_solve.final_cost << ", "
+                << prior_solve.total_time_in_seconds
+                << " s (free solve: " << summary.iterations.size()
+                << " iterations, " << summary.total_time_in_seconds << " s)";
+    }
   }
 
   // Write the result: poses, then one point per track.
   for (size_t i = 0; i < image_ids.size(); ++i) {
     if (num_observations_per_image[i] == 0) continue;
     colmap::Image& image = reconstruction->Image(image_ids[i]);
-    image.SetTvec(-(world_from_cam_rotations[i].transpose() * centers[i]));
+    image.SetTvec(
+        -(world_from_cam_rotations[i].transpose() * state.centers[i]));
   }
   DeleteAllPoints3D(reconstruction);
   size_t num_added_observations = 0;
@@ -294,7 +528,7 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
     }
     if (track.Length() < 2) continue;
     num_added_observations += track.Length();
-    reconstruction->AddPoint3D(points[point_idx], std::move(track));
+    reconstruction->AddPoint3D(state.points[point_idx], std::move(track));
   }
 
   const size_t num_angular_outliers = FilterObservationsByAngularError(
@@ -337,7 +571,43 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
         "% of the observations agree with the points; cameras likely stuck "
         "near the random start).");
   }
-  reconstruction->Normalize();
+
+  if (prior_summary.georegistered) {
+    // A prior still this far from its camera after the solve is wrong (or
+    // its camera is): bundle adjustment leaves it out.
+    prior_summary.rejected_image_ids = ImagesFartherFromPrior(
+        *reconstruction, priors->center_in_frame, priors->MaxErrorM());
+    std::vector<Eigen::Vector3d> used_priors;
+    for (const colmap::image_t image_id : reconstruction->RegImageIds()) {
+      const auto prior = priors->center_in_frame.find(image_id);
+      if (prior != priors->center_in_frame.end() &&
+          !std::binary_search(prior_summary.rejected_image_ids.begin(),
+                              prior_summary.rejected_image_ids.end(),
+                              image_id)) {
+        used_priors.push_back(prior->second);
+      }
+    }
+    prior_summary.num_priors_used = used_priors.size();
+    if (!PriorsFixSimilarity(used_priors)) {
+      // The alignment found three non-collinear priors that agree with the
+      // cameras, so this takes a solve that moved cameras away from them;
+      // the model is then left in the free frame (normalised below) rather
+      // than pinned to fewer priors than a similarity needs.
+      LOG(WARNING) << "Global positioning: only "
+                   << prior_summary.num_priors_used
+                   << " position priors (or collinear ones) lie within "
+                   << priors->MaxErrorM()
+                   << " m of their camera: the priors are not used, the model "
+                      "stays in an arbitrary frame.";
+      prior_summary.georegistered = false;
+    }
+  }
+  if (!prior_summary.georegistered) {
+    prior_summary.num_priors_used = 0;
+    prior_summary.rejected_image_ids.clear();
+    reconstruction->Normalize();
+  }
+  if (prior_summary_out != nullptr) *prior_summary_out = prior_summary;
   return Status::Ok();
 }
 

@@ -54,6 +54,31 @@ size_t CompleteAndMergeTracks(
   return num_completed + num_merged;
 }
 
+// The extent Reconstruction::Normalize scales to 10 (its default): the
+// diagonal of the box between the 10th and 90th percentiles of the
+// registered camera centres' coordinates.
+constexpr double kNormalizedExtent = 10.0;
+double NormalizeExtent(const colmap::Reconstruction& reconstruction) {
+  std::vector<double> coordinates[3];
+  for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
+    const Eigen::Vector3d center =
+        reconstruction.Image(image_id).ProjectionCenter();
+    for (int axis = 0; axis < 3; ++axis) {
+      coordinates[axis].push_back(center(axis));
+    }
+  }
+  if (coordinates[0].size() < 2) return kNormalizedExtent;
+  Eigen::Vector3d low;
+  Eigen::Vector3d high;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double>& values = coordinates[axis];
+    std::sort(values.begin(), values.end());
+    low(axis) = values[static_cast<size_t>(0.1 * (values.size() - 1))];
+    high(axis) = values[static_cast<size_t>(0.9 * (values.size() - 1))];
+  }
+  return (high - low).norm();
+}
+
 }  // namespace
 
 Status RetriangulationOptions::Check(const std::string& prefix) const {
@@ -84,7 +109,8 @@ Status RetriangulationOptions::Check(const std::string& prefix) const {
 Status Retriangulate(const RetriangulationOptions& options,
                      const ViewGraph& view_graph,
                      colmap::Reconstruction* reconstruction,
-                     const Interrupt& interrupt) {
+                     const Interrupt& interrupt,
+                     const PositionPriorTerm* priors) {
   if (const Status check = options.Check(); !check.ok()) {
     return Status::Error("Invalid retriangulation options: " + check.message());
   }
@@ -189,6 +215,16 @@ Status Retriangulate(const RetriangulationOptions& options,
       options.max_num_structure_iterations;
   ba_options.solver_options.gradient_tolerance =
       options.structure_gradient_tolerance;
+  if (priors != nullptr && !priors->empty()) {
+    // Ceres' gradient tolerance is absolute, in residual^2 per unit of the
+    // point coordinates, and structure_gradient_tolerance was chosen for
+    // normalised scenes (Reconstruction::Normalize: extent 10). A model in
+    // the priors' metres is not normalised, so the tolerance follows its
+    // extent (else a 500 m street would stop 50x earlier).
+    ba_options.solver_options.gradient_tolerance *=
+        kNormalizedExtent /
+        std::max(NormalizeExtent(work), std::numeric_limits<double>::min());
+  }
   ba_options.solver_options.logging_type = ceres::SILENT;
   ba_options.solver_options.callbacks.push_back(&callback);
   colmap::BundleAdjustmentConfig ba_config;
@@ -229,8 +265,9 @@ Status Retriangulate(const RetriangulationOptions& options,
             << " s";
 
   if (options.run_bundle_adjustment) {
-    const Status status = RunGlobalBundleAdjustment(options.bundle_adjustment,
-                                                    reconstruction, interrupt);
+    const Status status = RunGlobalBundleAdjustment(
+        options.bundle_adjustment, reconstruction, interrupt,
+        /*on_round_done=*/{}, priors);
     if (!status.ok()) return status;
   }
   UpdatePointErrors(reconstruction);

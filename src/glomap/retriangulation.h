@@ -89,9 +89,13 @@ struct RetriangulationOptions {
 // reconstruction untouched (the triangulation runs on a private copy of the
 // registered images, so COLMAP's Reconstruction::TearDown, which erases
 // unregistered images, never touches `reconstruction`). Point ids are new.
+// `priors` (in the reconstruction's frame) go to the final bundle
+// adjustment (see RunGlobalBundleAdjustment); the triangulation itself
+// works in any frame and unit (its thresholds are angles and pixels).
 Status Retriangulate(const RetriangulationOptions& options,
                      const ViewGraph& view_graph,
                      colmap::Reconstruction* reconstruction,
-                     const Interrupt& interrupt = {});
+                     const Interrupt& interrupt = {},
+                     const PositionPriorTerm* priors = nullptr);
 
 }  // namespace glomap
