@@ -42,18 +42,20 @@ size_t CountLines(const std::string& text) {
 // A small synthetic project: database, empty image folder, ground truth.
 struct Project {
   std::string dir, database_path, image_path;
+  colmap::Reconstruction ground_truth;
 };
 
-Project MakeProject(const std::string& name, SyntheticSceneOptions options) {
+// `shapes` (optional) receives what the generator picked, e.g. the priors.
+Project MakeProject(const std::string& name, SyntheticSceneOptions options,
+                    SyntheticSceneShapes* shapes = nullptr) {
   Project project;
   project.dir = CreateTestDir(name);
   project.database_path = project.dir + "/database.db";
   project.image_path = project.dir + "/images";
   fs::create_directories(project.image_path);
   options.random_seed = 3;
-  colmap::Reconstruction ground_truth;
-  const Status status =
-      WriteSyntheticScene(options, project.database_path, &ground_truth);
+  const Status status = WriteSyntheticScene(options, project.database_path,
+                                            &project.ground_truth, shapes);
   EXPECT_TRUE(status.ok()) << status.message();
   return project;
 }
@@ -938,19 +940,11 @@ TEST(GlobalMapperCommand, NonFinitePriorsAreLeftOutWithAWarning) {
 TEST(GlobalMapperCommand, GpsPriorsGiveAGeoregisteredModel) {
   SyntheticSceneOptions options;
   options.num_images = 12;
-  options.random_seed = 3;
   options.prior_position_noise_m = 0.1;
   options.prior_as_gps = true;
-  Project project;
-  project.dir = CreateTestDir("command_gps_priors");
-  project.database_path = project.dir + "/database.db";
-  project.image_path = project.dir + "/images";
-  fs::create_directories(project.image_path);
-  colmap::Reconstruction ground_truth;
   SyntheticSceneShapes shapes;
-  const Status status = WriteSyntheticScene(options, project.database_path,
-                                            &ground_truth, &shapes);
-  ASSERT_TRUE(status.ok()) << status.message();
+  const Project project = MakeProject("command_gps_priors", options, &shapes);
+  ASSERT_FALSE(HasFailure());
   ASSERT_EQ(shapes.prior_positions.size(), 12u);
 
   const std::string output_path = project.dir + "/sparse";
@@ -989,7 +983,7 @@ TEST(GlobalMapperCommand, GpsPriorsGiveAGeoregisteredModel) {
   ASSERT_EQ(model.NumRegImages(), 12u);
   for (const colmap::image_t image_id : model.RegImageIds()) {
     const Eigen::Vector3d expected =
-        ground_truth.Image(image_id).ProjectionCenter() -
+        project.ground_truth.Image(image_id).ProjectionCenter() -
         shapes.prior_positions[0];
     EXPECT_LT((model.Image(image_id).ProjectionCenter() - expected).norm(), 1.0)
         << "image " << image_id;

@@ -264,11 +264,10 @@ size_t ReportFinalPriorErrors(const std::vector<colmap::Reconstruction>& models,
     }
   }
   if (errors_m.empty()) return 0;
-  std::vector<double> sorted = errors_m;
-  std::sort(sorted.begin(), sorted.end());
+  std::sort(errors_m.begin(), errors_m.end());
   LOG(INFO) << "Position priors: camera to prior distance median "
-            << sorted[sorted.size() / 2] << " m, max " << sorted.back()
-            << " m over " << sorted.size() << " images.";
+            << errors_m[errors_m.size() / 2] << " m, max " << errors_m.back()
+            << " m over " << errors_m.size() << " images.";
   if (!far_names.empty()) {
     std::ostringstream names;
     for (size_t i = 0; i < far_names.size(); ++i) {
