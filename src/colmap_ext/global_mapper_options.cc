@@ -43,10 +43,18 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Ignore pairs the matcher flagged as watermark");
   b.Add("random_seed", &o->random_seed,
         "Seed of every random choice: same input and seed, same model");
-  b.Add("num_threads", &o->num_threads, "Threads (-1: all cores)");
+  b.Add("num_threads", &o->num_threads,
+        "Most threads any stage computes on at a time (-1: all cores): "
+        "relative poses, calibration, positioning, pose verification, bundle "
+        "adjustment, retriangulation; colours are read on one. Libraries "
+        "(CHOLMOD, BLAS, Eigen) start no threads of their own. With 1, the "
+        "same input and seed give the same model bit for bit");
   b.Add("min_residuals_per_ceres_thread", &o->min_residuals_per_ceres_thread,
-        "A Ceres solve gets one more thread (up to num_threads) per this "
-        "many residual blocks");
+        "Small-problem rule of every Ceres solve (calibration, positioning, "
+        "bundle adjustment, retriangulation): one thread per this many "
+        "residual blocks (about one per observation), up to num_threads, so "
+        "that smaller problems solve on one thread [residual blocks per "
+        "thread]");
   b.Add("min_model_size", &o->min_model_size,
         "Camera clusters with fewer images are not written (at least 2: "
         "a two-image project needs 2)");
@@ -289,10 +297,8 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Above this many images, the function tolerance is scaled by (this / "
         "images)^2");
   b.Add("ba_max_num_images_dense_schur", &ba.max_num_images_dense_schur,
-        "Up to this many images, solve with a dense Schur complement");
-  b.Add("ba_max_num_images_sparse_schur", &ba.max_num_images_sparse_schur,
-        "Up to this many images (and above the dense limit), solve with a "
-        "sparse Schur complement; above, with an iterative solver");
+        "Up to this many images, solve with a dense Schur complement; above, "
+        "with a sparse one (CHOLMOD)");
   b.Add("ba_refine_focal_length", &ba.refine_focal_length,
         "Refine focal lengths");
   b.Add("ba_refine_principal_point", &ba.refine_principal_point,

@@ -53,8 +53,8 @@ struct GlobalBundleAdjustmentOptions {
   double function_tolerance = 1e-5;
   int function_tolerance_num_images = 50;
 
-  // Linear solver by the number of images: up to the first, a dense Schur
-  // complement; up to the second, a sparse one (CHOLMOD); above, iterative.
+  // Linear solver by the number of images: up to this, a dense Schur
+  // complement; above, a sparse one (CHOLMOD), at every size.
   // The Schur complement of a global bundle adjustment is small and dense:
   // one block per image plus the shared intrinsics. Up to a few hundred
   // images a dense factorization of it is faster than COLMAP 3.8's choice
@@ -62,11 +62,12 @@ struct GlobalBundleAdjustmentOptions {
   // a lock per cell, and every point's chunk locks the shared intrinsics
   // block (measured on KITTI_sequence_1, 51 images: a fifth of the solve
   // time in GetCell and mutexes). Up to thousands of images the reduced
-  // camera system stays sparse enough for CHOLMOD; the iterative solver
-  // COLMAP uses above 1000 images stopped after a few steps far from the
-  // optimum on a 2000-image survey.
+  // camera system stays sparse enough for CHOLMOD (a survey or a street
+  // links each image to a bounded neighbourhood, so its factor grows about
+  // linearly). There is no iterative fallback for large problems: the
+  // iterative Schur solver that COLMAP uses above 1000 images stopped after
+  // a few steps far from the optimum on a 2000-image survey (issue 14).
   int max_num_images_dense_schur = 150;
-  int max_num_images_sparse_schur = 5000;
 
   // Which groups of intrinsic parameters are refined (all cameras).
   bool refine_focal_length = true;

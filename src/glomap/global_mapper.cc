@@ -317,6 +317,9 @@ Status GlobalMapper::Run(const std::string& database_path,
                          colmap::Reconstruction* work,
                          std::vector<colmap::Reconstruction>* models,
                          const GlobalMapperCallbacks& callbacks) {
+  // The libraries under the stages (CHOLMOD's OpenMP loops, OpenBLAS) start
+  // no threads of their own: GlobalMapper.num_threads bounds every stage.
+  const ScopedLibraryThreads library_threads;
   summary_ = GlobalMapperSummary();
   georegistration_ = Georegistration();
   models->clear();

@@ -10,6 +10,7 @@
 #include <thread>
 #include <vector>
 
+#include "glomap/ceres_threads.h"
 #include "util/threading.h"
 
 namespace glomap {
@@ -18,7 +19,9 @@ namespace glomap {
 // cores), the calling thread included. Each i is visited exactly once; the
 // order across chunks is not defined, so `fn` must write only to slot i of
 // its outputs. The first exception thrown by `fn` is rethrown here once all
-// threads are done.
+// threads are done. OpenMP regions inside `fn` (Eigen's, a library's) run on
+// the thread that enters them (see ScopedSerialOpenMp), so that no more than
+// `num_threads` threads compute.
 //
 // Not colmap::ThreadPool: its futures swallow a task's exception (the output
 // would be silently incomplete), and its constructor hangs when the system
@@ -26,6 +29,7 @@ namespace glomap {
 // on). Here a thread that cannot be started only means fewer threads.
 template <typename Fn>
 void ParallelFor(int num_threads, size_t n, const Fn& fn) {
+  const ScopedSerialOpenMp serial_openmp;
   const int threads = colmap::GetEffectiveNumThreads(num_threads);
   if (threads <= 1 || n < 2) {
     for (size_t i = 0; i < n; ++i) fn(i);
@@ -53,7 +57,10 @@ void ParallelFor(int num_threads, size_t n, const Fn& fn) {
   workers.reserve(threads - 1);
   for (int t = 1; t < threads; ++t) {
     try {
-      workers.emplace_back(work);
+      workers.emplace_back([&work]() {
+        ScopedSerialOpenMp::SetSerialOpenMpOnThisThread();
+        work();
+      });
     } catch (const std::system_error&) {
       break;
     }
