@@ -211,8 +211,9 @@ TEST(CameraClustering, ExtractClusterKeepsOnlyClusterObservations) {
   }
   const colmap::Reconstruction cluster =
       ExtractCluster(reconstruction, cluster_ids);
-  EXPECT_EQ(cluster.NumImages(), reconstruction.NumImages());
-  EXPECT_EQ(cluster.NumCameras(), reconstruction.NumCameras());
+  // Only the cluster's images are copied, all registered.
+  EXPECT_EQ(cluster.NumImages(), cluster_ids.size());
+  EXPECT_EQ(cluster.NumCameras(), 1u);
   ImageIds registered = cluster.RegImageIds();
   std::sort(registered.begin(), registered.end());
   EXPECT_EQ(registered, cluster_ids);
@@ -224,10 +225,113 @@ TEST(CameraClustering, ExtractClusterKeepsOnlyClusterObservations) {
     }
   }
   for (colmap::image_t image_id = 1; image_id <= 6; ++image_id) {
-    EXPECT_EQ(cluster.Image(image_id).NumPoints3D(), 0u);
+    EXPECT_FALSE(cluster.ExistsImage(image_id));
   }
   // The input is untouched.
   EXPECT_EQ(reconstruction.NumRegImages(), 12u);
+}
+
+// Values and links of an extracted cluster: cameras of other images are not
+// copied; images keep name, camera, pose and keypoints; each point keeps
+// its position, colour, error and its cluster observations in their order,
+// and each of those keypoints links back to it. Unregistered images and ids
+// that do not exist are not taken.
+TEST(CameraClustering, ExtractClusterCopiesExactlyTheCluster) {
+  colmap::Reconstruction reconstruction;
+  for (const colmap::camera_t camera_id : {1, 2, 3}) {
+    colmap::Camera camera;
+    camera.SetCameraId(camera_id);
+    camera.InitializeWithName("SIMPLE_RADIAL", 400 + 100 * camera_id, 640, 480);
+    reconstruction.AddCamera(camera);
+  }
+  // Images 1-4 use cameras 1 and 2, images 5-6 camera 3; image 7 (camera 3)
+  // stays unregistered.
+  for (colmap::image_t image_id = 1; image_id <= 7; ++image_id) {
+    colmap::Image image;
+    image.SetImageId(image_id);
+    image.SetName("image" + std::to_string(image_id));
+    image.SetCameraId(image_id <= 2 ? 1 : image_id <= 4 ? 2 : 3);
+    image.SetQvec(Eigen::Vector4d(1, 0.1 * image_id, 0, 0).normalized());
+    image.SetTvec(Eigen::Vector3d(image_id, -1, 2));
+    std::vector<Eigen::Vector2d> keypoints;
+    for (int k = 0; k < 20; ++k) {
+      keypoints.emplace_back(10 * k + image_id, 5 * k);
+    }
+    image.SetPoints2D(keypoints);
+    reconstruction.AddImage(image);
+    if (image_id != 7) reconstruction.RegisterImage(image_id);
+  }
+  auto add_point = [&](const std::vector<colmap::TrackElement>& elements,
+                       double x) {
+    colmap::Track track;
+    track.AddElements(elements);
+    const colmap::point3D_t point3D_id = reconstruction.AddPoint3D(
+        Eigen::Vector3d(x, 2 * x, 3), track,
+        Eigen::Vector3ub(static_cast<uint8_t>(x), 7, 9));
+    reconstruction.Point3D(point3D_id).SetError(0.1 * x);
+    return point3D_id;
+  };
+  // Observations in mixed order, some outside the cluster {4, 3, 1, 2}.
+  const colmap::point3D_t kept1 = add_point({{4, 0}, {5, 0}, {1, 3}}, 1);
+  add_point({{5, 1}, {6, 1}}, 2);  // Outside: dropped.
+  add_point({{2, 2}, {6, 2}}, 3);  // One left: dropped.
+  const colmap::point3D_t kept2 = add_point({{3, 4}, {2, 4}, {1, 4}}, 4);
+  add_point({{1, 5}, {5, 5}, {6, 5}}, 5);  // One left: dropped.
+
+  const colmap::Reconstruction cluster =
+      ExtractCluster(reconstruction, {4, 3, 1, 2, 7, 99});
+  ImageIds registered = cluster.RegImageIds();
+  std::sort(registered.begin(), registered.end());
+  EXPECT_EQ(registered, (ImageIds{1, 2, 3, 4}));
+  EXPECT_EQ(cluster.NumImages(), 4u);
+  ASSERT_EQ(cluster.NumCameras(), 2u);
+  for (const colmap::camera_t camera_id : {1, 2}) {
+    EXPECT_EQ(cluster.Camera(camera_id).Params(),
+              reconstruction.Camera(camera_id).Params());
+  }
+  for (const colmap::image_t image_id : registered) {
+    const colmap::Image& image = cluster.Image(image_id);
+    const colmap::Image& source = reconstruction.Image(image_id);
+    EXPECT_EQ(image.Name(), source.Name());
+    EXPECT_EQ(image.CameraId(), source.CameraId());
+    EXPECT_EQ(image.Qvec(), source.Qvec());
+    EXPECT_EQ(image.Tvec(), source.Tvec());
+    ASSERT_EQ(image.NumPoints2D(), source.NumPoints2D());
+    for (colmap::point2D_t idx = 0; idx < image.NumPoints2D(); ++idx) {
+      EXPECT_EQ(image.Point2D(idx).XY(), source.Point2D(idx).XY());
+    }
+  }
+
+  // Kept points in the order of their old ids, with new ids.
+  ASSERT_EQ(cluster.NumPoints3D(), 2u);
+  std::vector<colmap::point3D_t> ids;
+  for (const auto& point3D : cluster.Points3D()) ids.push_back(point3D.first);
+  std::sort(ids.begin(), ids.end());
+  const std::vector<std::pair<colmap::point3D_t, std::vector<colmap::image_t>>>
+      expected = {{kept1, {4, 1}}, {kept2, {3, 2, 1}}};
+  size_t num_observations = 0;
+  for (size_t i = 0; i < expected.size(); ++i) {
+    const colmap::Point3D& point3D = cluster.Point3D(ids[i]);
+    const colmap::Point3D& source = reconstruction.Point3D(expected[i].first);
+    EXPECT_EQ(point3D.XYZ(), source.XYZ());
+    EXPECT_EQ(point3D.Color(), source.Color());
+    EXPECT_EQ(point3D.Error(), source.Error());
+    ImageIds observers;
+    for (const colmap::TrackElement& el : point3D.Track().Elements()) {
+      observers.push_back(el.image_id);
+      EXPECT_EQ(cluster.Image(el.image_id).Point2D(el.point2D_idx).Point3DId(),
+                ids[i]);
+    }
+    EXPECT_EQ(observers, expected[i].second);
+    num_observations += observers.size();
+  }
+  // No keypoint links to a point that was not kept.
+  size_t num_linked = 0;
+  for (const colmap::image_t image_id : registered) {
+    num_linked += cluster.Image(image_id).NumPoints3D();
+  }
+  EXPECT_EQ(num_linked, num_observations);
+  EXPECT_EQ(cluster.ComputeNumObservations(), num_observations);
 }
 
 }  // namespace

@@ -258,6 +258,16 @@ TEST(RelativePose, InvalidatesPairsWithTooFewInliers) {
   EXPECT_FALSE(view_graph.Pairs().at(all_outliers.pair_id).is_valid);
   EXPECT_TRUE(view_graph.Pairs().at(good.pair_id).is_valid);
   EXPECT_EQ(num_invalidated, 3);
+  // Invalid pairs keep no inlier indices (the low-ratio pair had plenty);
+  // valid ones hold theirs without spare capacity.
+  for (const colmap::image_pair_t pair_id :
+       {too_few.pair_id, low_ratio.pair_id, all_outliers.pair_id}) {
+    EXPECT_EQ(view_graph.Pairs().at(pair_id).inlier_idxs.capacity(), 0u);
+  }
+  const std::vector<int>& good_inliers =
+      view_graph.Pairs().at(good.pair_id).inlier_idxs;
+  EXPECT_GE(good_inliers.size(), 30u);
+  EXPECT_EQ(good_inliers.capacity(), good_inliers.size());
 
   RelativePoseOptions bad_options;
   bad_options.min_inlier_ratio = 2;

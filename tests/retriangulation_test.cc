@@ -234,6 +234,40 @@ TEST(Retriangulation, RecoversPointsWithKnownPoses) {
   EXPECT_EQ(reconstruction.NumRegImages(), 20u);
 }
 
+// The new points link to the model's own images: every observation names a
+// keypoint of a registered image that links back to that point, no other
+// keypoint links to a point, and the keypoints themselves are unchanged.
+TEST(Retriangulation, ObservationsAndKeypointLinksAgree) {
+  Scene scene = MakeScene(12, 800, 0.05, 7);
+  colmap::Reconstruction reconstruction = scene.reconstruction;
+  AddStalePoints(&reconstruction);
+  RetriangulationOptions options;
+  options.run_bundle_adjustment = false;
+  ASSERT_TRUE(Retriangulate(options, scene.view_graph, &reconstruction).ok());
+  ASSERT_GT(reconstruction.NumPoints3D(), 0u);
+  size_t num_observations = 0;
+  for (const auto& [point3D_id, point3D] : reconstruction.Points3D()) {
+    for (const colmap::TrackElement& el : point3D.Track().Elements()) {
+      ASSERT_TRUE(reconstruction.IsImageRegistered(el.image_id));
+      EXPECT_EQ(
+          reconstruction.Image(el.image_id).Point2D(el.point2D_idx).Point3DId(),
+          point3D_id);
+      ++num_observations;
+    }
+  }
+  size_t num_linked = 0;
+  for (const auto& [image_id, image] : reconstruction.Images()) {
+    const colmap::Image& source = scene.reconstruction.Image(image_id);
+    ASSERT_EQ(image.NumPoints2D(), source.NumPoints2D());
+    for (colmap::point2D_t idx = 0; idx < image.NumPoints2D(); ++idx) {
+      EXPECT_EQ(image.Point2D(idx).XY(), source.Point2D(idx).XY());
+    }
+    num_linked += image.NumPoints3D();
+  }
+  EXPECT_EQ(num_linked, num_observations);
+  EXPECT_EQ(reconstruction.NumImages(), scene.reconstruction.NumImages());
+}
+
 TEST(Retriangulation, WithBundleAdjustment) {
   Scene scene = MakeScene(20, 2000, 0.05, 2);
   colmap::Reconstruction reconstruction = scene.reconstruction;

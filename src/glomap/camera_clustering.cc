@@ -150,41 +150,55 @@ std::vector<std::vector<colmap::image_t>> ClusterCameras(
 colmap::Reconstruction ExtractCluster(
     const colmap::Reconstruction& reconstruction,
     const std::vector<colmap::image_t>& cluster_image_ids) {
-  colmap::Reconstruction cluster = reconstruction;
-  std::unordered_set<colmap::image_t> in_cluster;
+  std::vector<colmap::image_t> image_ids;
   for (const colmap::image_t image_id : cluster_image_ids) {
     if (reconstruction.ExistsImage(image_id) &&
         reconstruction.IsImageRegistered(image_id)) {
-      in_cluster.insert(image_id);
+      image_ids.push_back(image_id);
     }
   }
-  // Observations outside the cluster go first; DeleteObservation deletes a
-  // point as soon as fewer than two observations would remain.
+  std::sort(image_ids.begin(), image_ids.end());
+  image_ids.erase(std::unique(image_ids.begin(), image_ids.end()),
+                  image_ids.end());
+  const std::unordered_set<colmap::image_t> in_cluster(image_ids.begin(),
+                                                       image_ids.end());
+
+  // The cluster's images and their cameras, copied one by one; the images'
+  // links to points are set again as the points are added.
+  colmap::Reconstruction cluster;
+  for (const colmap::image_t image_id : image_ids) {
+    const colmap::Image& source = reconstruction.Image(image_id);
+    if (!cluster.ExistsCamera(source.CameraId())) {
+      cluster.AddCamera(reconstruction.Camera(source.CameraId()));
+    }
+    colmap::Image image = source;
+    for (colmap::point2D_t idx = 0; idx < image.NumPoints2D(); ++idx) {
+      if (image.Point2D(idx).HasPoint3D()) image.ResetPoint3DForPoint2D(idx);
+    }
+    // RegisterImage lists only images that are not registered yet.
+    image.SetRegistered(false);
+    cluster.AddImage(std::move(image));
+    cluster.RegisterImage(image_id);
+  }
+
+  // Each point with at least two observations in the cluster, with those
+  // observations in their order, in ascending order of the old ids.
   std::vector<colmap::point3D_t> point3D_ids;
-  point3D_ids.reserve(cluster.NumPoints3D());
-  for (const auto& point3D : cluster.Points3D()) {
+  point3D_ids.reserve(reconstruction.NumPoints3D());
+  for (const auto& point3D : reconstruction.Points3D()) {
     point3D_ids.push_back(point3D.first);
   }
   std::sort(point3D_ids.begin(), point3D_ids.end());
-  std::vector<colmap::TrackElement> outside;
   for (const colmap::point3D_t point3D_id : point3D_ids) {
-    outside.clear();
-    for (const colmap::TrackElement& el :
-         cluster.Point3D(point3D_id).Track().Elements()) {
-      if (in_cluster.count(el.image_id) == 0) outside.push_back(el);
+    const colmap::Point3D& point3D = reconstruction.Point3D(point3D_id);
+    colmap::Track track;
+    for (const colmap::TrackElement& el : point3D.Track().Elements()) {
+      if (in_cluster.count(el.image_id) > 0) track.AddElement(el);
     }
-    for (const colmap::TrackElement& el : outside) {
-      if (!cluster.ExistsPoint3D(point3D_id)) break;
-      cluster.DeleteObservation(el.image_id, el.point2D_idx);
-    }
-  }
-  std::vector<colmap::image_t> others;
-  for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
-    if (in_cluster.count(image_id) == 0) others.push_back(image_id);
-  }
-  std::sort(others.begin(), others.end());
-  for (const colmap::image_t image_id : others) {
-    cluster.DeRegisterImage(image_id);
+    if (track.Length() < 2) continue;
+    const colmap::point3D_t new_id =
+        cluster.AddPoint3D(point3D.XYZ(), std::move(track), point3D.Color());
+    cluster.Point3D(new_id).SetError(point3D.Error());
   }
   return cluster;
 }

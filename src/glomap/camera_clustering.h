@@ -57,10 +57,13 @@ std::vector<std::vector<colmap::image_t>> ClusterCameras(
     const CameraClusteringOptions& options,
     const colmap::Reconstruction& reconstruction);
 
-// A copy of `reconstruction` for one cluster: all cameras and images are
-// kept, only the cluster's images stay registered, and each point keeps its
-// observations in cluster images, or is dropped if fewer than two remain.
-// Image ids not registered in `reconstruction` are ignored.
+// The model of one cluster, copied from `reconstruction`: the cluster's
+// images (all registered, with their keypoints and poses) and their cameras,
+// and each point with its observations in cluster images (xyz, colour,
+// error and the order of the observations kept), or none if fewer than two
+// remain. Nothing else is copied: the memory is that of the cluster. Point
+// ids are new, in the order of the old ones. Image ids not registered in
+// `reconstruction` are ignored.
 colmap::Reconstruction ExtractCluster(
     const colmap::Reconstruction& reconstruction,
     const std::vector<colmap::image_t>& cluster_image_ids);

@@ -5,11 +5,13 @@
 #include <iterator>
 #include <sstream>
 #include <unordered_set>
+#include <utility>
 
 #include "base/pose.h"
 #include "base/similarity_transform.h"
 #include "glomap/options_check.h"
 #include "glomap/prior_alignment.h"
+#include "glomap/return_freed_memory.h"
 #include "glomap/track_filters.h"
 #include "util/logging.h"
 #include "util/misc.h"
@@ -450,6 +452,9 @@ Status GlobalMapper::Run(const std::string& database_path,
     }
     tracks =
         EstablishTracks(track_options, view_graph, *work, &num_inconsistent);
+    // The tracks were the last reader of the inlier indices.
+    view_graph.ReleaseInlierIdxs();
+    ReturnFreedMemory();
     if (tracks.NumTracks() == 0) {
       return Status::Error(
           "No feature track is seen in three or more registered images: "
@@ -470,7 +475,8 @@ Status GlobalMapper::Run(const std::string& database_path,
         options_.global_positioning, tracks, work, interrupt,
         prior_term.empty() ? nullptr : &prior_term, &prior_summary);
     if (!status.ok()) return status;
-    tracks.Clear();
+    tracks.Clear();  // The points hold the tracks now.
+    ReturnFreedMemory();
     std::string counts =
         Counts({{"images_registered", work->NumRegImages()},
                 {"points", work->NumPoints3D()},
@@ -538,6 +544,7 @@ Status GlobalMapper::Run(const std::string& database_path,
         RunGlobalBundleAdjustment(ba_options, work, interrupt, model_changed,
                                   prior_term.empty() ? nullptr : &prior_term);
     if (!status.ok()) return status;
+    ReturnFreedMemory();
     stage.Finish(Counts({{"images_registered", work->NumRegImages()},
                          {"points", work->NumPoints3D()},
                          {"observations", work->ComputeNumObservations()}}));
@@ -577,8 +584,13 @@ Status GlobalMapper::Run(const std::string& database_path,
     stage.Finish(counts);
   }
   if (interrupt.IsStopped()) return Status::Cancelled();
+  // No later stage reads the view graph: its matches go before the models
+  // are made.
+  view_graph = ViewGraph();
+  ReturnFreedMemory();
 
   // 11. Camera clustering into separate models, then output preparation.
+  bool work_moved = false;
   {
     StageTimer stage("Camera clustering", 10, &summary_, callbacks);
     std::vector<std::vector<colmap::image_t>> clusters;
@@ -588,10 +600,23 @@ Status GlobalMapper::Run(const std::string& database_path,
     } else {
       clusters = ClusterCameras(options_.clustering, *work);
     }
+    // What the summary needs of `work`, taken before a single cluster's
+    // model is moved out of it.
+    const size_t num_images = work->NumImages();
+    if (georegistration_.georegistered) {
+      for (const colmap::image_t image_id : rejected_prior_ids) {
+        georegistration_.rejected_prior_image_names.push_back(
+            work->Image(image_id).Name());
+      }
+    }
     for (const auto& cluster : clusters) {
       if (static_cast<int>(cluster.size()) < options_.min_model_size) continue;
+      // A single cluster is the whole working model: it is moved, and
+      // `work` is left empty (the caller replaces it by the models).
+      work_moved = clusters.size() == 1;
       colmap::Reconstruction model =
-          clusters.size() == 1 ? *work : ExtractCluster(*work, cluster);
+          work_moved ? std::exchange(*work, colmap::Reconstruction())
+                     : ExtractCluster(*work, cluster);
       if (georegistration_.georegistered) {
         // In the prior frame, in metres: only the offset taken out for the
         // solve is put back.
@@ -615,10 +640,6 @@ Status GlobalMapper::Run(const std::string& database_path,
     for (const auto& model : *models) num_registered += model.NumRegImages();
     summary_.num_registered_images = num_registered;
     if (georegistration_.georegistered) {
-      for (const colmap::image_t image_id : rejected_prior_ids) {
-        georegistration_.rejected_prior_image_names.push_back(
-            work->Image(image_id).Name());
-      }
       georegistration_.num_priors_used =
           ReportFinalPriorErrors(*models, prior_term, prior_frame_offset);
       LOG(INFO) << "The model is georegistered: frame "
@@ -629,7 +650,7 @@ Status GlobalMapper::Run(const std::string& database_path,
     }
     stage.Finish(Counts({{"models", models->size()},
                          {"images_registered", num_registered},
-                         {"images", work->NumImages()}}));
+                         {"images", num_images}}));
   }
   summary_.total_seconds = total_timer.ElapsedSeconds();
   LOG(INFO) << "Global mapper finished in " << std::fixed
@@ -639,7 +660,8 @@ Status GlobalMapper::Run(const std::string& database_path,
             << " images registered; pose verification re-placed "
             << summary_.num_replaced_images << " and left out "
             << summary_.num_deregistered_images << " image(s).";
-  model_changed();
+  // An emptied `work` is not worth showing: the caller shows the models.
+  if (!work_moved) model_changed();
   return Status::Ok();
 }
 

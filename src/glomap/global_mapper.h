@@ -14,8 +14,8 @@
 #include "glomap/ceres_threads.h"
 #include "glomap/database_reader.h"
 #include "glomap/global_positioning.h"
-#include "glomap/position_priors.h"
 #include "glomap/pose_verification.h"
+#include "glomap/position_priors.h"
 #include "glomap/relative_pose.h"
 #include "glomap/retriangulation.h"
 #include "glomap/rotation_averaging.h"
@@ -111,7 +111,9 @@ class GlobalMapper {
   // Runs the pipeline on the database at `database_path` (opened read-only).
   // `work` is the model being built (all database images; registered ones
   // have poses), so that a viewer can show it while the pipeline runs. On
-  // success, `models` holds one model per camera cluster, largest first.
+  // success, `models` holds one model per camera cluster, largest first;
+  // with a single cluster the model is moved out of `work`, which is then
+  // empty (and on_model_changed is not called for it at the end).
   Status Run(const std::string& database_path, colmap::Reconstruction* work,
              std::vector<colmap::Reconstruction>* models,
              const GlobalMapperCallbacks& callbacks = {});
@@ -119,9 +121,7 @@ class GlobalMapper {
   const GlobalMapperSummary& Summary() const { return summary_; }
   // The frame of the models of the last Run: georegistered when position
   // priors were used (written beside each model as georegistration.txt).
-  const Georegistration& GetGeoregistration() const {
-    return georegistration_;
-  }
+  const Georegistration& GetGeoregistration() const { return georegistration_; }
 
  private:
   GlobalMapperOptions options_;

@@ -354,6 +354,7 @@ bool ProcessPair(const RelativePoseOptions& options, const PairTask& task) {
     pair.inlier_idxs.push_back(match_idxs[k]);
   }
 
+  pair.inlier_idxs.shrink_to_fit();
   pair.qvec2_from_1 = qvec;
   pair.tvec2_from_1 = tvec;
   pair.has_relative_pose = true;
@@ -465,6 +466,8 @@ Status EstimateRelativePoses(const RelativePoseOptions& options,
   for (size_t i = 0; i < tasks.size(); ++i) {
     if (!keep[i]) {
       tasks[i].pair->is_valid = false;
+      // No later stage reads the inliers of an invalid pair.
+      std::vector<int>().swap(tasks[i].pair->inlier_idxs);
       ++num_invalidated;
     }
   }

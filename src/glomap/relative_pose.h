@@ -69,7 +69,8 @@ struct RelativePoseOptions {
 // qvec2_from_1 / tvec2_from_1 / has_relative_pose and inlier_idxs, and
 // invalidates pairs whose estimation fails or whose re-scored inliers are too
 // few (count or ratio); their number goes to `num_invalidated_pairs` when not
-// null. Pairs whose images or cameras are missing from `reconstruction` are
+// null. Invalidated pairs keep no inlier indices (no later stage reads them).
+// Pairs whose images or cameras are missing from `reconstruction` are
 // invalidated too. Returns Cancelled when `interrupt` fires; the view graph
 // then holds some pairs' new poses and must not be used.
 Status EstimateRelativePoses(const RelativePoseOptions& options,

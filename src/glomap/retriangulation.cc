@@ -11,6 +11,7 @@
 #include "glomap/ceres_interrupt.h"
 #include "glomap/ceres_threads.h"
 #include "glomap/options_check.h"
+#include "glomap/return_freed_memory.h"
 #include "glomap/track_filters.h"
 #include "optim/bundle_adjustment.h"
 #include "sfm/incremental_triangulator.h"
@@ -106,46 +107,47 @@ Status RetriangulationOptions::Check(const std::string& prefix) const {
   return check.status();
 }
 
-Status Retriangulate(const RetriangulationOptions& options,
-                     const ViewGraph& view_graph,
-                     colmap::Reconstruction* reconstruction,
-                     const Interrupt& interrupt,
-                     const PositionPriorTerm* priors) {
-  if (const Status check = options.Check(); !check.ok()) {
-    return Status::Error("Invalid retriangulation options: " + check.message());
-  }
-  if (reconstruction == nullptr) {
-    return Status::Error("No reconstruction to retriangulate.");
-  }
-  colmap::Timer timer;
-  timer.Start();
-  std::vector<colmap::image_t> registered_ids = reconstruction->RegImageIds();
-  std::sort(registered_ids.begin(), registered_ids.end());
-  if (registered_ids.size() < 2) {
-    return Status::Error(
-        "Retriangulation needs at least two registered images.");
-  }
+namespace {
+
+// Points triangulated and refined with the poses of `reconstruction` fixed,
+// and what it took.
+struct TriangulatedPoints {
+  struct Point {
+    Eigen::Vector3d xyz;
+    colmap::Track track;
+    Eigen::Vector3ub color;
+  };
+  std::vector<Point> points;  // In the order of their ids in the triangulation.
+  size_t num_pairs = 0;
+  size_t num_triangulated = 0;  // Before the refinement loop.
+};
+
+// Triangulates the matches of the view graph between the images
+// `registered_ids` of `reconstruction` (sorted) and refines the points as
+// COLMAP's point_triangulator does. The correspondence graph and the
+// triangulation's own model are freed on return: only the points are
+// handed back (their tracks moved, not copied).
+Status TriangulateWithFixedPoses(
+    const RetriangulationOptions& options, const ViewGraph& view_graph,
+    const colmap::Reconstruction& reconstruction,
+    const std::vector<colmap::image_t>& registered_ids,
+    const Interrupt& interrupt, const PositionPriorTerm* priors,
+    TriangulatedPoints* result) {
   const std::unordered_set<colmap::image_t> registered(registered_ids.begin(),
                                                        registered_ids.end());
 
   // The triangulator needs a CorrespondenceGraph, and COLMAP only accepts one
   // together with per-pair statistics that Reconstruction::Load(DatabaseCache)
-  // fills (SetObservationAsTriangulated CHECKs against them). We therefore fill
-  // a DatabaseCache in memory instead of loading it from the database (which
-  // would open it read-write and use other pairs).
+  // fills (SetObservationAsTriangulated CHECKs against them). We therefore
+  // fill the graph of a DatabaseCache in memory instead of loading it from
+  // the database (which would open it read-write and use other pairs). The
+  // cache holds no image: the graph needs only the number of keypoints of
+  // each image, and the triangulation's images are made once, in `work`.
   colmap::DatabaseCache cache;
-  for (const colmap::image_t image_id : registered_ids) {
-    const colmap::Image& source = reconstruction->Image(image_id);
-    colmap::Image image = KeypointImage(source);
-    image.SetQvec(source.Qvec());
-    image.SetTvec(source.Tvec());
-    if (!cache.ExistsCamera(source.CameraId())) {
-      cache.AddCamera(reconstruction->Camera(source.CameraId()));
-    }
-    cache.AddImage(std::move(image));  // Also adds it to the graph.
-  }
   colmap::CorrespondenceGraph& graph = MutableCorrespondenceGraph(&cache);
-  size_t num_pairs = 0;
+  for (const colmap::image_t image_id : registered_ids) {
+    graph.AddImage(image_id, reconstruction.Image(image_id).NumPoints2D());
+  }
   for (const auto& [pair_id, pair] : view_graph.Pairs()) {
     if (pair.matches.size() < static_cast<size_t>(options.min_num_matches) ||
         (options.use_only_valid_pairs && !pair.is_valid) ||
@@ -153,35 +155,39 @@ Status Retriangulate(const RetriangulationOptions& options,
         registered.count(pair.image_id2) == 0) {
       continue;
     }
-    const colmap::FeatureMatches matches =
-        CleanMatches(pair.matches, cache.Image(pair.image_id1).NumPoints2D(),
-                     cache.Image(pair.image_id2).NumPoints2D());
+    const colmap::FeatureMatches matches = CleanMatches(
+        pair.matches, reconstruction.Image(pair.image_id1).NumPoints2D(),
+        reconstruction.Image(pair.image_id2).NumPoints2D());
     graph.AddCorrespondences(pair.image_id1, pair.image_id2, matches);
-    ++num_pairs;
+    ++result->num_pairs;
   }
   graph.Finalize();  // Drops images without correspondences from the graph.
-  for (const colmap::image_t image_id : registered_ids) {
-    colmap::Image& image = cache.Image(image_id);
-    if (graph.ExistsImage(image_id)) {
-      image.SetNumObservations(graph.NumObservationsForImage(image_id));
-      image.SetNumCorrespondences(graph.NumCorrespondencesForImage(image_id));
-    }
-  }
   if (graph.NumImages() < 2) {
     return Status::Error(
         "Retriangulation: no image pair with enough matches between "
         "registered images.");
   }
 
-  // Declared after `cache`, so it is destroyed first (it points to the graph).
+  // Declared after `cache`, so it is destroyed first (it points to the
+  // graph). Load takes the pair statistics; the images of the graph come
+  // from `reconstruction`, with their keypoints and poses but no points.
   colmap::Reconstruction work;
   work.Load(cache);
   std::vector<colmap::image_t> triangulated_ids;
   for (const colmap::image_t image_id : registered_ids) {
-    if (graph.ExistsImage(image_id)) {
-      work.RegisterImage(image_id);
-      triangulated_ids.push_back(image_id);
+    if (!graph.ExistsImage(image_id)) continue;
+    const colmap::Image& source = reconstruction.Image(image_id);
+    if (!work.ExistsCamera(source.CameraId())) {
+      work.AddCamera(reconstruction.Camera(source.CameraId()));
     }
+    colmap::Image image = KeypointImage(source);
+    image.SetQvec(source.Qvec());
+    image.SetTvec(source.Tvec());
+    image.SetNumObservations(graph.NumObservationsForImage(image_id));
+    image.SetNumCorrespondences(graph.NumCorrespondencesForImage(image_id));
+    work.AddImage(std::move(image));
+    work.RegisterImage(image_id);
+    triangulated_ids.push_back(image_id);
   }
   work.SetUp(&graph);
 
@@ -199,7 +205,7 @@ Status Retriangulate(const RetriangulationOptions& options,
     triangulator.TriangulateImage(tri_options, image_id);
   }
   CompleteAndMergeTracks(tri_options, &triangulator);
-  const size_t num_triangulated = work.NumPoints3D();
+  result->num_triangulated = work.NumPoints3D();
 
   // Structure-only refinement, as COLMAP's point_triangulator: poses and
   // intrinsics stay fixed, so the points can be refined without a gauge and
@@ -251,15 +257,57 @@ Status Retriangulate(const RetriangulationOptions& options,
     }
   }
 
-  // Replace the points of `reconstruction` by the new ones. Images share ids
-  // and Points2D with `work`, so the tracks carry over unchanged.
-  const size_t num_old_points3D = DeleteAllPoints3D(reconstruction);
-  for (const colmap::point3D_t point3D_id : SortedPoint3DIds(work)) {
-    const colmap::Point3D& point3D = work.Point3D(point3D_id);
-    reconstruction->AddPoint3D(point3D.XYZ(), point3D.Track(), point3D.Color());
+  // The tracks are moved out: `work` is dropped on return.
+  const std::vector<colmap::point3D_t> point3D_ids = SortedPoint3DIds(work);
+  result->points.reserve(point3D_ids.size());
+  for (const colmap::point3D_t point3D_id : point3D_ids) {
+    colmap::Point3D& point3D = work.Point3D(point3D_id);
+    result->points.push_back(
+        {point3D.XYZ(), std::move(point3D.Track()), point3D.Color()});
   }
-  LOG(INFO) << "Retriangulation: " << num_pairs << " pairs, "
-            << num_triangulated << " points triangulated, "
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status Retriangulate(const RetriangulationOptions& options,
+                     const ViewGraph& view_graph,
+                     colmap::Reconstruction* reconstruction,
+                     const Interrupt& interrupt,
+                     const PositionPriorTerm* priors) {
+  if (const Status check = options.Check(); !check.ok()) {
+    return Status::Error("Invalid retriangulation options: " + check.message());
+  }
+  if (reconstruction == nullptr) {
+    return Status::Error("No reconstruction to retriangulate.");
+  }
+  colmap::Timer timer;
+  timer.Start();
+  std::vector<colmap::image_t> registered_ids = reconstruction->RegImageIds();
+  std::sort(registered_ids.begin(), registered_ids.end());
+  if (registered_ids.size() < 2) {
+    return Status::Error(
+        "Retriangulation needs at least two registered images.");
+  }
+  TriangulatedPoints triangulated;
+  const Status triangulation = TriangulateWithFixedPoses(
+      options, view_graph, *reconstruction, registered_ids, interrupt, priors,
+      &triangulated);
+  if (!triangulation.ok()) return triangulation;
+
+  // Replace the points of `reconstruction` by the new ones. Images share ids
+  // and Points2D with the triangulation's, so the tracks carry over
+  // unchanged.
+  const size_t num_old_points3D = DeleteAllPoints3D(reconstruction);
+  for (TriangulatedPoints::Point& point : triangulated.points) {
+    reconstruction->AddPoint3D(point.xyz, std::move(point.track), point.color);
+  }
+  triangulated.points = std::vector<TriangulatedPoints::Point>();
+  // The correspondence graph and the triangulation's images are freed:
+  // their pages go back to the system before bundle adjustment allocates.
+  ReturnFreedMemory();
+  LOG(INFO) << "Retriangulation: " << triangulated.num_pairs << " pairs, "
+            << triangulated.num_triangulated << " points triangulated, "
             << reconstruction->NumPoints3D() << " after refinement ("
             << num_old_points3D << " before), " << timer.ElapsedSeconds()
             << " s";

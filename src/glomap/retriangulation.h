@@ -89,6 +89,10 @@ struct RetriangulationOptions {
 // reconstruction untouched (the triangulation runs on a private copy of the
 // registered images, so COLMAP's Reconstruction::TearDown, which erases
 // unregistered images, never touches `reconstruction`). Point ids are new.
+// Memory: besides `reconstruction`, the triangulation holds one copy of the
+// keypoints of the registered images that have matches, and COLMAP's
+// correspondence graph of their matches; both are freed before the final
+// bundle adjustment.
 // `priors` (in the reconstruction's frame) go to the final bundle
 // adjustment (see RunGlobalBundleAdjustment); the triangulation itself
 // works in any frame and unit (its thresholds are angles and pixels).

@@ -48,9 +48,10 @@ class TrackStore {
     offsets_.reserve(num_tracks + 1);
     observations_.reserve(num_observations);
   }
+  // Removes every track and frees the memory (clear() would keep it).
   void Clear() {
-    offsets_.clear();
-    observations_.clear();
+    std::vector<uint64_t>().swap(offsets_);
+    std::vector<TrackObservation>().swap(observations_);
   }
 
  private:

@@ -149,4 +149,10 @@ size_t ViewGraph::InvalidatePairsOutside(
   return num_invalidated;
 }
 
+void ViewGraph::ReleaseInlierIdxs() {
+  for (auto& [pair_id, pair] : pairs_) {
+    std::vector<int>().swap(pair.inlier_idxs);
+  }
+}
+
 }  // namespace glomap

@@ -41,7 +41,8 @@ struct ImagePair {
   colmap::FeatureMatches matches;
 
   // Indices into `matches` that agree with the relative pose below, filled by
-  // the relative-pose stage. Tracks are built from these only.
+  // the relative-pose stage. Tracks are built from these only; the global
+  // mapper frees them after that (ViewGraph::ReleaseInlierIdxs).
   std::vector<int> inlier_idxs;
 
   // Relative pose cam2_from_cam1: x_cam2 = R(qvec) x_cam1 + tvec, |tvec| = 1.
@@ -106,6 +107,10 @@ class ViewGraph {
   // the number of pairs newly invalidated.
   size_t InvalidatePairsOutside(
       const std::unordered_set<colmap::image_t>& image_ids);
+
+  // Frees the inlier indices of every pair (ImagePair::inlier_idxs), once
+  // the last stage that reads them (track establishment) is done.
+  void ReleaseInlierIdxs();
 
  private:
   std::map<colmap::image_pair_t, ImagePair> pairs_;
