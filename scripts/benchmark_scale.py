@@ -686,16 +686,23 @@ def layout_rows(records, layout):
     return [summarize(records, layout, n) for n in sizes]
 
 
-def slopes(rows):
-    """Per stage (then OTHER, then "total"), the time and memory slopes over
-    the successful rows: [{"name", "time_slope", "memory_slope", "points",
-    "time_at_max", "memory_at_max", "share_at_max", "flags"}]."""
+def ok_rows_and_stage_names(rows):
+    """The successful rows, and the names of their stages in the order they
+    first appear."""
     ok = [r for r in rows if r and r["status"] == "ok"]
     names = []
     for r in ok:
         for name in r["stage_names"]:
             if name not in names:
                 names.append(name)
+    return ok, names
+
+
+def slopes(rows):
+    """Per stage (then OTHER, then "total"), the time and memory slopes over
+    the successful rows: [{"name", "time_slope", "memory_slope", "points",
+    "time_at_max", "memory_at_max", "share_at_max", "flags"}]."""
+    ok, names = ok_rows_and_stage_names(rows)
     result = []
     largest = max(ok, key=lambda r: r["images"]) if ok else None
     for name in names + [OTHER, "total"]:
@@ -923,12 +930,7 @@ def plot_series(rows):
     """(names, data lines) of one layout's plot data: per successful size,
     images, then every stage's and OTHER's time, the total, every stage's and
     OTHER's peak memory and the whole process's ("?" where missing)."""
-    ok = [r for r in rows if r and r["status"] == "ok"]
-    names = []
-    for r in ok:
-        for name in r["stage_names"]:
-            if name not in names:
-                names.append(name)
+    ok, names = ok_rows_and_stage_names(rows)
     names.append(OTHER)
 
     def cell(value):

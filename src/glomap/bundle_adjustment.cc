@@ -531,7 +531,7 @@ Status Solve(const GlobalBundleAdjustmentOptions& options,
   ceres::Solve(solver_options, &problem, &summary);
   *num_iterations = static_cast<int>(summary.iterations.size());
   // One line per solve: whether it converged or hit the iteration cap, and
-  // the cost it reached (scripts/benchmark_scale.py compares these).
+  // the cost it reached.
   LOG(INFO) << "BA solve (" << (fix_rotations ? "fixed rotations" : "joint")
             << ", " << image_ids.size() << " images, "
             << problem.NumResidualBlocks() << " residual blocks, "
