@@ -16,6 +16,7 @@
 #include "glomap/ceres_interrupt.h"
 #include "glomap/ceres_threads.h"
 #include "glomap/options_check.h"
+#include "glomap/pose_manifold.h"
 #include "glomap/track_filters.h"
 #include "glomap/union_find.h"
 #include "optim/bundle_adjustment.h"
@@ -386,8 +387,9 @@ double ScaledFunctionTolerance(const GlobalBundleAdjustmentOptions& options,
 // One Ceres problem for both stages. COLMAP 3.8's BundleAdjustmentConfig can
 // hold a whole pose constant but not the rotation alone, so in the
 // rotation-fixed solve rotations are not parameters at all; in the joint
-// solve each image has one pose block (see PoseCostFunction) on the product
-// of Ceres' quaternion and Euclidean manifolds. The loss and the
+// solve each image has one pose block (see PoseCostFunction) on
+// PoseAboutCenterManifold (the image that holds the scale gauge on the product
+// of Ceres' quaternion manifold and a subset of t). The loss and the
 // parameterization of intrinsics follow colmap::BundleAdjuster; the linear
 // solver does not (see ChooseLinearSolver).
 Status Solve(const GlobalBundleAdjustmentOptions& options,
@@ -481,11 +483,7 @@ Status Solve(const GlobalBundleAdjustmentOptions& options,
                 ceres::QuaternionManifold(),
                 ceres::SubsetManifold(3, {scale_gauge->scale_tvec_idx})));
       } else {
-        problem.SetManifold(
-            pose_data,
-            new ceres::ProductManifold<ceres::QuaternionManifold,
-                                       ceres::EuclideanManifold<3>>(
-                ceres::QuaternionManifold(), ceres::EuclideanManifold<3>()));
+        problem.SetManifold(pose_data, NewPoseAboutCenterManifold());
       }
     }
     camera_ids.insert(image.CameraId());
