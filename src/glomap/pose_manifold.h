@@ -25,10 +25,10 @@ namespace glomap {
 struct PoseAboutCenterManifold {
   template <typename T>
   bool Plus(const T* x, const T* delta, T* x_plus_delta) const {
-    // c = -R^T t, with R^T the rotation by the conjugate quaternion.
+    // R^T t = -c, R^T being the rotation by the conjugate quaternion.
     const T cam_to_world[4] = {x[0], -x[1], -x[2], -x[3]};
-    T center[3];
-    ceres::UnitQuaternionRotatePoint(cam_to_world, x + 4, center);
+    T minus_center[3];
+    ceres::UnitQuaternionRotatePoint(cam_to_world, x + 4, minus_center);
     // q' = q_delta * q, q_delta the rotation by |delta| about delta; the
     // first-order form near zero keeps the derivative at delta = 0 exact.
     const T squared_angle =
@@ -48,9 +48,10 @@ struct PoseAboutCenterManifold {
       q_delta[3] = delta[2] / T(2);
     }
     ceres::QuaternionProduct(q_delta, x, x_plus_delta);
-    // t' = -R' c', c' = c + dc (c above is -c).
-    const T new_center[3] = {-center[0] + delta[3], -center[1] + delta[4],
-                             -center[2] + delta[5]};
+    // t' = -R' c', c' = c + dc.
+    const T new_center[3] = {delta[3] - minus_center[0],
+                             delta[4] - minus_center[1],
+                             delta[5] - minus_center[2]};
     T rotated[3];
     ceres::UnitQuaternionRotatePoint(x_plus_delta, new_center, rotated);
     x_plus_delta[4] = -rotated[0];
@@ -76,11 +77,14 @@ struct PoseAboutCenterManifold {
       scale = T(2) * ceres::atan2(sin_half, q_delta[0]) / sin_half;
     }
     for (int i = 0; i < 3; ++i) y_minus_x[i] = scale * q_delta[i + 1];
-    const T y_to_world[4] = {y[0], -y[1], -y[2], -y[3]};
-    T y_center[3], x_center[3];
-    ceres::UnitQuaternionRotatePoint(y_to_world, y + 4, y_center);
-    ceres::UnitQuaternionRotatePoint(x_inverse, x + 4, x_center);
-    for (int i = 0; i < 3; ++i) y_minus_x[3 + i] = x_center[i] - y_center[i];
+    // c_y - c_x = R_x^T t_x - R_y^T t_y.
+    const T y_inverse[4] = {y[0], -y[1], -y[2], -y[3]};
+    T minus_center_y[3], minus_center_x[3];
+    ceres::UnitQuaternionRotatePoint(y_inverse, y + 4, minus_center_y);
+    ceres::UnitQuaternionRotatePoint(x_inverse, x + 4, minus_center_x);
+    for (int i = 0; i < 3; ++i) {
+      y_minus_x[3 + i] = minus_center_x[i] - minus_center_y[i];
+    }
     return true;
   }
 };
