@@ -441,6 +441,9 @@ TEST_P(GlobalMapperPositionPriors, ForwardSequenceInPriorFrame) {
             << prior_mapper.Summary().total_seconds << " s vs "
             << free_mapper.Summary().total_seconds << " s" << std::endl;
   EXPECT_EQ(prior_model.NumRegImages(), 150u);
+  // The noise the model shows: 3 m, raised a little by the wrong priors.
+  EXPECT_GT(georegistration.prior_noise_estimate_m, 0.8 * kPriorStdM);
+  EXPECT_LT(georegistration.prior_noise_estimate_m, 1.3 * kPriorStdM);
   EXPECT_LT(prior_error_m, 1.3 * free_aligned_error_m);
   EXPECT_LT(prior_error_m, 1.5 * floor_m);
   EXPECT_GE(prior_evaluation.pose_aucs[1], free_evaluation.pose_aucs[1] - 0.5);
@@ -451,6 +454,38 @@ INSTANTIATE_TEST_SUITE_P(Seeds, GlobalMapperPositionPriors,
                          ::testing::Values(0, 1));
 INSTANTIATE_TEST_SUITE_P(DISABLED_MoreSeeds, GlobalMapperPositionPriors,
                          ::testing::Values(2));
+
+// Priors noisier than the user says (3 m of noise, prior_position_std_m at
+// its default of 1 m): the model shows their real noise (georegistration.txt
+// says it, and the log warns), instead of only rejecting good priors.
+TEST(GlobalMapper, PriorsNoisierThanStatedAreSeen) {
+  const std::string dir = testing::CreateTestDir("global_mapper_prior_noise");
+  SyntheticSceneOptions scene;
+  scene.num_images = 80;
+  scene.layout = "forward";
+  scene.verification = "ground_truth";
+  scene.max_pairs_per_image = 15;
+  scene.prior_position_noise_m = 3;
+  colmap::Reconstruction truth;
+  ASSERT_TRUE(WriteSyntheticScene(scene, dir + "/database.db", &truth).ok());
+  GlobalMapperOptions options;
+  options.position_priors.use_position_priors = true;
+  ASSERT_EQ(options.position_priors.prior_position_std_m, 1);
+  GlobalMapper mapper(options);
+  colmap::Reconstruction work;
+  std::vector<colmap::Reconstruction> models;
+  ::testing::internal::CaptureStderr();
+  const Status status = mapper.Run(dir + "/database.db", &work, &models);
+  const std::string log = ::testing::internal::GetCapturedStderr();
+  ASSERT_TRUE(status.ok()) << status.message();
+  const Georegistration& georegistration = mapper.GetGeoregistration();
+  ASSERT_TRUE(georegistration.georegistered);
+  EXPECT_GT(georegistration.prior_noise_estimate_m, 2.2);
+  EXPECT_LT(georegistration.prior_noise_estimate_m, 4.0);
+  EXPECT_NE(log.find("The position priors look noisier than "
+                     "GlobalMapper.prior_position_std_m says"),
+            std::string::npos);
+}
 
 TEST(GlobalMapper, SameSeedSameModel) {
   const std::string dir = testing::CreateTestDir("global_mapper_determinism");

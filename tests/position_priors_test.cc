@@ -411,12 +411,17 @@ TEST(Georegistration, ToText) {
   EXPECT_NE(text.find("\nrejected_prior_image dir/b c.jpg\n"),
             std::string::npos);
 
+  // Unknown until the model is made: no line.
+  EXPECT_EQ(values.count("prior_noise_estimate_m"), 0u);
+
   geo.frame = "metric";
   geo.rejected_prior_image_names.clear();
+  geo.prior_noise_estimate_m = 2.54321;
   const std::map<std::string, std::string> metric = Values(geo.ToText());
   EXPECT_EQ(metric.at("frame"), "metric");
   EXPECT_EQ(metric.count("origin_latitude_deg"), 0u);
   EXPECT_EQ(metric.at("priors_rejected"), "0");
+  EXPECT_EQ(metric.at("prior_noise_estimate_m"), "2.54");
 
   EXPECT_EQ(Values(Georegistration().ToText()).at("frame"), "arbitrary");
 }

@@ -136,7 +136,10 @@ struct GlobalBundleAdjustmentOptions {
 // loss; the priors fix the gauge (no pose or scale held, except in a part of
 // the model that shares no point with the rest and has too few priors of its
 // own to fix a similarity), and the scene is never normalized, so the model
-// stays in the prior frame, in metres.
+// stays in the prior frame, in metres. Before and after each solve the whole
+// model takes the similarity that best fits it to its priors
+// (FitSimilarityToPriors), which the solves themselves would take only
+// slowly.
 Status RunGlobalBundleAdjustment(
     const GlobalBundleAdjustmentOptions& options,
     colmap::Reconstruction* reconstruction, const Interrupt& interrupt = {},

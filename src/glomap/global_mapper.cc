@@ -1,6 +1,7 @@
 #include "glomap/global_mapper.h"
 
 #include <algorithm>
+#include <cmath>
 #include <iomanip>
 #include <iterator>
 #include <sstream>
@@ -282,6 +283,48 @@ size_t ReportFinalPriorErrors(const std::vector<colmap::Reconstruction>& models,
                  << names.str();
   }
   return errors_m.size();
+}
+
+// The priors' noise as the output models show it (every prior of a
+// registered image, rejected ones included, so that a standard deviation
+// set too small cannot hide its own symptom), and a warning when it is well
+// above GlobalMapper.prior_position_std_m: good priors are then rejected as
+// wrong and the others pull harder than they should. Returns the estimate
+// [m], NaN with too few priors.
+double ReportPriorNoise(const std::vector<colmap::Reconstruction>& models,
+                        const PositionPriorTerm& all_priors,
+                        const Eigen::Vector3d& offset, size_t num_rejected) {
+  std::vector<double> distances_m;
+  for (const colmap::Reconstruction& model : models) {
+    for (const colmap::image_t image_id : model.RegImageIds()) {
+      const auto prior = all_priors.center_in_frame.find(image_id);
+      if (prior == all_priors.center_in_frame.end()) continue;
+      distances_m.push_back(
+          (model.Image(image_id).ProjectionCenter() - (prior->second + offset))
+              .norm());
+    }
+  }
+  const size_t num_priors = distances_m.size();
+  const double noise_m = EstimatePriorNoiseStdM(std::move(distances_m));
+  if (!std::isfinite(noise_m)) return noise_m;
+  // Twice the stated deviation: 10% of wrong priors raise the estimate by
+  // about 7%, so a warning means the stated value is wrong.
+  constexpr double kTooNoisyFactor = 2;
+  if (noise_m > kTooNoisyFactor * all_priors.std_m) {
+    LOG(WARNING) << "The position priors look noisier than "
+                    "GlobalMapper.prior_position_std_m says: their distances "
+                    "from the cameras imply about "
+                 << noise_m << " m per axis, against " << all_priors.std_m
+                 << " m; " << num_rejected << " of " << num_priors
+                 << " were rejected as wrong and the rest were weighted too "
+                    "strongly. Set prior_position_std_m to the priors' "
+                    "accuracy.";
+  } else {
+    LOG(INFO) << "Position priors: noise about " << noise_m
+              << " m per axis as the model shows it (prior_position_std_m "
+              << all_priors.std_m << " m).";
+  }
+  return noise_m;
 }
 
 }  // namespace
@@ -642,6 +685,9 @@ Status GlobalMapper::Run(const std::string& database_path,
     if (georegistration_.georegistered) {
       georegistration_.num_priors_used =
           ReportFinalPriorErrors(*models, prior_term, prior_frame_offset);
+      georegistration_.prior_noise_estimate_m =
+          ReportPriorNoise(*models, all_priors, prior_frame_offset,
+                           georegistration_.rejected_prior_image_names.size());
       LOG(INFO) << "The model is georegistered: frame "
                 << georegistration_.frame << ", in metres, "
                 << georegistration_.num_priors_used << " position priors used, "

@@ -156,6 +156,10 @@ std::string Georegistration::ToText() const {
   }
   text << "priors_used " << num_priors_used << "\n"
        << "priors_rejected " << rejected_prior_image_names.size() << "\n";
+  if (std::isfinite(prior_noise_estimate_m)) {
+    text << std::setprecision(3) << "prior_noise_estimate_m "
+         << prior_noise_estimate_m << "\n";
+  }
   for (const std::string& name : rejected_prior_image_names) {
     text << "rejected_prior_image " << name << "\n";
   }

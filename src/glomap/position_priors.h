@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -59,12 +60,16 @@ struct Georegistration {
   // num_priors_used to the number of usable priors; the solve updates both.
   size_t num_priors_used = 0;
   std::vector<std::string> rejected_prior_image_names;
+  // The priors' noise, one standard deviation per axis [m], as the final
+  // model shows it (EstimatePriorNoiseStdM over every prior, rejected ones
+  // included); NaN until the model is made, or with too few priors.
+  double prior_noise_estimate_m = std::numeric_limits<double>::quiet_NaN();
 
   // The text of georegistration.txt: comments ("# ...") and "key value"
   // lines: frame, origin_latitude_deg, origin_longitude_deg,
   // origin_altitude_m (ENU only, 17 significant digits), priors_used,
-  // priors_rejected, then one "rejected_prior_image <name>" line per
-  // rejected image.
+  // priors_rejected, prior_noise_estimate_m (when known), then one
+  // "rejected_prior_image <name>" line per rejected image.
   std::string ToText() const;
 };
 

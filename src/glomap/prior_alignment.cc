@@ -281,6 +281,18 @@ std::vector<colmap::image_t> ImagesFartherFromPrior(
   return image_ids;
 }
 
+double EstimatePriorNoiseStdM(std::vector<double> distances_m) {
+  if (distances_m.size() < kMinPriorsForNoiseEstimate) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  // Median of the chi distribution with 3 degrees of freedom: the square
+  // root of chi-square(3)'s median, 2.36597.
+  constexpr double kChi3Median = 1.53817;
+  const auto middle = distances_m.begin() + distances_m.size() / 2;
+  std::nth_element(distances_m.begin(), middle, distances_m.end());
+  return *middle / kChi3Median;
+}
+
 std::string ImageNames(const colmap::Reconstruction& reconstruction,
                        const std::vector<colmap::image_t>& image_ids) {
   std::ostringstream names;
