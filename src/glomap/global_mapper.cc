@@ -10,6 +10,7 @@
 
 #include "base/pose.h"
 #include "base/similarity_transform.h"
+#include "glomap/model_shape.h"
 #include "glomap/options_check.h"
 #include "glomap/prior_alignment.h"
 #include "glomap/return_freed_memory.h"
@@ -118,26 +119,47 @@ Status VerifyPosesAndCount(const PoseVerificationOptions& options,
   return Status::Ok();
 }
 
-// Median angle in degrees between the registered images' optical axes and
-// their mean direction.
-double ViewDirectionSpreadDeg(const colmap::Reconstruction& model) {
-  std::vector<Eigen::Vector3d> axes;
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const colmap::image_t image_id : model.RegImageIds()) {
-    axes.push_back(model.Image(image_id).RotationMatrix().row(2).transpose());
-    mean += axes.back();
+// A block counts as nadir when its cameras look within this angle of their
+// mean direction (median) ...
+constexpr double kNadirMaxViewSpreadDeg = 15;
+// ... and that direction is within this angle of the normal of the plane of
+// the camera centres ...
+constexpr double kNadirMaxViewToNormalDeg = 20;
+// ... and its dome can hide when the block is at least this many times
+// wider than the cameras' height above the ground. Measured on the synthetic
+// surveys (unknown focal length, 40 m of height, no priors): 1,000 images,
+// 4.4 times, AUC@3 97.6 (no warning); 2,000 images, 6.3 times, AUC@3 82.7
+// where the same run with GPS priors has 97.4.
+constexpr double kDomeRiskWidthOverHeight = 5;
+
+// Warns when `model` is a wide nadir block whose cameras have radial
+// distortion parameters (refined in bundle adjustment); logs its shape
+// either way.
+void WarnIfDomeCanHide(const colmap::Reconstruction& model) {
+  bool refines_distortion = false;
+  for (const auto& [camera_id, camera] : model.Cameras()) {
+    if (!camera.ExtraParamsIdxs().empty()) refines_distortion = true;
   }
-  if (axes.empty() || !(mean.norm() > 0)) return 180;
-  mean.normalize();
-  std::vector<double> angles_deg;
-  for (const Eigen::Vector3d& axis : axes) {
-    angles_deg.push_back(
-        colmap::RadToDeg(std::acos(std::clamp(axis.dot(mean), -1.0, 1.0))));
-  }
-  std::nth_element(angles_deg.begin(),
-                   angles_deg.begin() + angles_deg.size() / 2,
-                   angles_deg.end());
-  return angles_deg[angles_deg.size() / 2];
+  if (!refines_distortion) return;
+  const NadirBlockShape shape = MeasureNadirBlock(model);
+  const bool nadir = shape.view_spread_deg <= kNadirMaxViewSpreadDeg &&
+                     shape.view_to_plane_normal_deg <= kNadirMaxViewToNormalDeg;
+  LOG(INFO) << "Block shape: viewing directions spread by " << std::fixed
+            << std::setprecision(1) << shape.view_spread_deg << " deg, "
+            << shape.view_to_plane_normal_deg
+            << " deg from the normal of the camera plane, width "
+            << shape.WidthOverHeight() << " x the height.";
+  if (!nadir || shape.WidthOverHeight() < kDomeRiskWidthOverHeight) return;
+  LOG(WARNING) << "The cameras look down on a block " << std::fixed
+               << std::setprecision(1) << shape.WidthOverHeight()
+               << " times wider than their height above it, and radial "
+                  "distortion is refined without position priors: such a "
+                  "block can bend into a shallow dome that the reprojection "
+                  "error does not show (the bend looks like radial "
+                  "distortion). To prevent it, use position priors "
+                  "(--GlobalMapper.use_position_priors 1), a calibrated "
+                  "camera with --GlobalMapper.ba_refine_extra_params 0, or "
+                  "add oblique images.";
 }
 
 // The error when fewer images than min_model_size can take part: no model
@@ -578,6 +600,13 @@ Status GlobalMapper::Run(const std::string& database_path,
     ba_options.refine_principal_point = observable;
     retriangulation_options.bundle_adjustment.refine_principal_point =
         observable;
+  }
+
+  // A nadir block that refines radial distortion without position priors
+  // can bend into a dome that its reprojection error does not show (see
+  // NadirBlockShape): the user learns it, and what prevents it.
+  if (!georegistration_.georegistered && ba_options.refine_extra_params) {
+    WarnIfDomeCanHide(*work);
   }
 
   // 8. Rounds of global bundle adjustment with filtering.
