@@ -14,24 +14,26 @@
 namespace glomap {
 namespace {
 
-// Cameras at `centers`, each looking along `view_direction`, each observing
-// one point `depth` ahead of it (at the same keypoint).
-colmap::Reconstruction MakeBlock(const std::vector<Eigen::Vector3d>& centers,
-                                 const Eigen::Vector3d& view_direction,
-                                 double depth) {
+// Cameras at `centers`, camera i looking along `view_directions[i]` (or
+// all along the one given), each observing one point `depth` ahead of it
+// (at the same keypoint).
+colmap::Reconstruction MakeBlock(
+    const std::vector<Eigen::Vector3d>& centers,
+    const std::vector<Eigen::Vector3d>& view_directions, double depth) {
   colmap::Reconstruction model;
   colmap::Camera camera;
   camera.SetCameraId(1);
   camera.InitializeWithName("SIMPLE_RADIAL", 500, 640, 480);
   model.AddCamera(camera);
-  // "Up" in the images: north for nadir views, else the sky.
-  const Eigen::Vector3d world_up =
-      std::abs(view_direction.normalized().z()) > 0.9
-          ? Eigen::Vector3d::UnitY()
-          : Eigen::Vector3d::UnitZ();
-  const Eigen::Matrix3d cam_from_world =
-      testing::CamFromWorldLookingAlong(view_direction, world_up);
   for (size_t i = 0; i < centers.size(); ++i) {
+    const Eigen::Vector3d view_direction =
+        view_directions[view_directions.size() == 1 ? 0 : i].normalized();
+    // "Up" in the images: north for nadir views, else the sky.
+    const Eigen::Vector3d world_up = std::abs(view_direction.z()) > 0.9
+                                         ? Eigen::Vector3d::UnitY()
+                                         : Eigen::Vector3d::UnitZ();
+    const Eigen::Matrix3d cam_from_world =
+        testing::CamFromWorldLookingAlong(view_direction, world_up);
     colmap::Image image;
     image.SetImageId(i + 1);
     image.SetName("image" + std::to_string(i + 1));
@@ -43,7 +45,7 @@ colmap::Reconstruction MakeBlock(const std::vector<Eigen::Vector3d>& centers,
     model.RegisterImage(i + 1);
     colmap::Track track;
     track.AddElement(i + 1, 0);
-    model.AddPoint3D(centers[i] + depth * view_direction.normalized(), track);
+    model.AddPoint3D(centers[i] + depth * view_direction, track);
   }
   return model;
 }
@@ -58,7 +60,7 @@ TEST(MeasureNadirBlock, AerialSurveyIsAWideNadirBlock) {
     }
   }
   const NadirBlockShape shape =
-      MeasureNadirBlock(MakeBlock(centers, Eigen::Vector3d(0, 0, -1), 40));
+      MeasureNadirBlock(MakeBlock(centers, {Eigen::Vector3d(0, 0, -1)}, 40));
   EXPECT_NEAR(shape.view_spread_deg, 0, 1e-6);
   EXPECT_NEAR(shape.view_to_plane_normal_deg, 0, 1e-6);
   EXPECT_NEAR(shape.height, 40, 1e-9);
@@ -76,7 +78,7 @@ TEST(MeasureNadirBlock, ForwardStreetIsNotANadirBlock) {
     centers.emplace_back(5.0 * i, 0.3 * std::sin(0.1 * i), 1.5);
   }
   const NadirBlockShape shape =
-      MeasureNadirBlock(MakeBlock(centers, Eigen::Vector3d(1, 0, 0), 20));
+      MeasureNadirBlock(MakeBlock(centers, {Eigen::Vector3d(1, 0, 0)}, 20));
   EXPECT_NEAR(shape.view_spread_deg, 0, 1e-6);
   EXPECT_GT(shape.view_to_plane_normal_deg, 80);
   EXPECT_LT(shape.WidthOverHeight(), 0.1);
@@ -84,25 +86,14 @@ TEST(MeasureNadirBlock, ForwardStreetIsNotANadirBlock) {
 
 // Cameras around an object look in every direction.
 TEST(ViewDirectionSpreadDeg, RingLooksEveryWay) {
-  colmap::Reconstruction model;
-  colmap::Camera camera;
-  camera.SetCameraId(1);
-  camera.InitializeWithName("SIMPLE_PINHOLE", 500, 640, 480);
-  model.AddCamera(camera);
+  std::vector<Eigen::Vector3d> centers;
+  std::vector<Eigen::Vector3d> view_directions;
   for (int i = 0; i < 36; ++i) {
     const double angle = 2 * M_PI * i / 36;
-    const Eigen::Vector3d center(std::cos(angle), std::sin(angle), 0);
-    const Eigen::Matrix3d cam_from_world =
-        testing::CamFromWorldLookingAlong(-center);
-    colmap::Image image;
-    image.SetImageId(i + 1);
-    image.SetName("image" + std::to_string(i + 1));
-    image.SetCameraId(1);
-    image.SetQvec(colmap::RotationMatrixToQuaternion(cam_from_world));
-    image.SetTvec(-cam_from_world * center);
-    model.AddImage(image);
-    model.RegisterImage(i + 1);
+    centers.emplace_back(std::cos(angle), std::sin(angle), 0);
+    view_directions.push_back(-centers.back());
   }
+  const colmap::Reconstruction model = MakeBlock(centers, view_directions, 1);
   // Every axis is about 90 deg from any mean direction.
   EXPECT_GT(ViewDirectionSpreadDeg(model), 80);
   EXPECT_GT(MeasureNadirBlock(model).view_spread_deg, 80);
@@ -112,7 +103,7 @@ TEST(ViewDirectionSpreadDeg, RingLooksEveryWay) {
 TEST(MeasureNadirBlock, TooFewImagesAreNoBlock) {
   const NadirBlockShape shape = MeasureNadirBlock(
       MakeBlock({Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(100, 0, 0)},
-                Eigen::Vector3d(0, 0, -1), 10));
+                {Eigen::Vector3d(0, 0, -1)}, 10));
   EXPECT_EQ(shape.view_spread_deg, 180);
   EXPECT_EQ(shape.WidthOverHeight(), 0);
 }

@@ -31,11 +31,9 @@ Eigen::Vector3d MeanViewDirection(const colmap::Reconstruction& model,
                          : Eigen::Vector3d::Zero();
 }
 
-}  // namespace
-
-double ViewDirectionSpreadDeg(const colmap::Reconstruction& model) {
-  std::vector<Eigen::Vector3d> axes;
-  const Eigen::Vector3d mean = MeanViewDirection(model, &axes);
+// Median angle [deg] between `axes` and `mean`; 180 without either.
+double SpreadDeg(const std::vector<Eigen::Vector3d>& axes,
+                 const Eigen::Vector3d& mean) {
   if (axes.empty() || mean.isZero()) return 180;
   std::vector<double> angles_deg;
   for (const Eigen::Vector3d& axis : axes) {
@@ -45,12 +43,20 @@ double ViewDirectionSpreadDeg(const colmap::Reconstruction& model) {
   return Median(&angles_deg);
 }
 
+}  // namespace
+
+double ViewDirectionSpreadDeg(const colmap::Reconstruction& model) {
+  std::vector<Eigen::Vector3d> axes;
+  const Eigen::Vector3d mean = MeanViewDirection(model, &axes);
+  return SpreadDeg(axes, mean);
+}
+
 NadirBlockShape MeasureNadirBlock(const colmap::Reconstruction& model) {
   NadirBlockShape shape;
   if (model.NumRegImages() < 3) return shape;
-  shape.view_spread_deg = ViewDirectionSpreadDeg(model);
   std::vector<Eigen::Vector3d> axes;
   const Eigen::Vector3d mean_axis = MeanViewDirection(model, &axes);
+  shape.view_spread_deg = SpreadDeg(axes, mean_axis);
 
   Eigen::Vector3d mean_center = Eigen::Vector3d::Zero();
   for (const colmap::image_t image_id : model.RegImageIds()) {
