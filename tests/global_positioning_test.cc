@@ -211,6 +211,27 @@ TEST(GlobalPositioning, ForwardMotion) {
   EXPECT_LT(error, 1e-3);
 }
 
+TEST(GlobalPositioning, StartsFromImageCenters) {
+  // The start that position initialization gives a straight drive: the
+  // order right, the spacing wrong (the pairs' directions do not fix it),
+  // in other units. The points, triangulated from it, must fix the spacing.
+  Scene scene = MakeForwardScene(40, 1500, 0.5);
+  for (size_t i = 0; i < scene.image_ids.size(); ++i) {
+    const Eigen::Vector3d& truth = scene.true_centers[i];
+    const Eigen::Vector3d start(0.3 * truth.x(), 0.3 * truth.y(),
+                                0.3 * truth.z() + std::sin(truth.z() / 6));
+    colmap::Image& image = scene.reconstruction.Image(scene.image_ids[i]);
+    image.SetTvec(-(image.RotationMatrix() * start));
+  }
+  GlobalPositioningOptions options;
+  options.start_from_image_centers = true;
+  ASSERT_TRUE(Solve(&scene, options).ok());
+  EXPECT_EQ(scene.reconstruction.NumRegImages(), 40);
+  const double error = RelativeCenterError(scene);
+  std::cout << "  relative centre error " << error << std::endl;
+  EXPECT_LT(error, 1e-3);
+}
+
 // Timing on a longer drive (run with --gtest_also_run_disabled_tests).
 TEST(GlobalPositioning, DISABLED_LongForwardMotionBenchmark) {
   const char* num_images = std::getenv("GP_BENCHMARK_NUM_IMAGES");

@@ -69,6 +69,10 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("skip_pose_verification", &o->skip_pose_verification,
         "Do not check the camera poses against the structure (not "
         "recommended: a wrongly placed camera then goes unnoticed)");
+  b.Add("init_positions_from_pairs", &o->init_positions_from_pairs,
+        "Start global positioning from camera centres fitted to the pairs' "
+        "translation directions instead of random ones (experimental: "
+        "keeps long streets in one model, worse on dino-363)");
 
   b.Group("Position priors");
   auto& pp = o->position_priors;
@@ -211,6 +215,17 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("track_min_num_tracks_per_view", &tr.min_num_tracks_per_view,
         "Keep the longest tracks until every image has this many (-1: all "
         "tracks)");
+
+  b.Group("Position initialization");
+  auto& pi = o->position_initialization;
+  b.Add("pi_loss_scale", &pi.loss_scale,
+        "Huber loss scale on the pairs' translation directions");
+  b.Add("pi_max_num_iterations", &pi.max_num_iterations,
+        "Maximum solver iterations");
+  b.Add("pi_function_tolerance", &pi.function_tolerance,
+        "Solver function tolerance");
+  b.Add("pi_min_scale", &pi.min_scale,
+        "Lower bound of every pair's scale [1 / scene units]");
 
   b.Group("Global positioning");
   auto& gp = o->global_positioning;

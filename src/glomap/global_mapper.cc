@@ -182,6 +182,11 @@ GlobalMapperOptions WithGeneralOptionsPropagated(GlobalMapperOptions options) {
   options.relative_pose.num_threads = options.num_threads;
   options.view_graph_calibration.num_threads = options.num_threads;
   options.global_positioning.num_threads = options.num_threads;
+  options.global_positioning.start_from_image_centers =
+      options.init_positions_from_pairs;
+  options.position_initialization.num_threads = options.num_threads;
+  options.position_initialization.min_residuals_per_ceres_thread =
+      options.min_residuals_per_ceres_thread;
   options.bundle_adjustment.num_threads = options.num_threads;
   options.pose_verification.num_threads = options.num_threads;
   options.pose_verification.random_seed = options.random_seed + 2;
@@ -369,6 +374,7 @@ Status GlobalMapperOptions::Check() const {
   check.Add(stages.relative_pose.Check("GlobalMapper.rp_"));
   check.Add(stages.rotation_averaging.Check("GlobalMapper.ra_"));
   check.Add(stages.tracks.Check("GlobalMapper.track_"));
+  check.Add(stages.position_initialization.Check("GlobalMapper.pi_"));
   check.Add(stages.global_positioning.Check("GlobalMapper.gp_"));
   check.Add(stages.pose_verification.Check("GlobalMapper.pv_"));
   check.Add(stages.bundle_adjustment.Check("GlobalMapper.ba_"));
@@ -535,6 +541,11 @@ Status GlobalMapper::Run(const std::string& database_path,
   // initialisation (Sec. 3, the bounded ray objective).
   {
     StageTimer stage("Global positioning", 5, &summary_, callbacks);
+    if (options_.init_positions_from_pairs) {
+      const Status status = InitializeCameraCenters(
+          options_.position_initialization, view_graph, work, interrupt);
+      if (!status.ok()) return status;
+    }
     GlobalPositioningPriorSummary prior_summary;
     const Status status = RunGlobalPositioning(
         options_.global_positioning, tracks, work, interrupt,

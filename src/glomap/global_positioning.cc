@@ -3,6 +3,7 @@
 #include <ceres/ceres.h>
 #include <glog/logging.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <memory>
@@ -16,48 +17,12 @@
 #include "glomap/ceres_interrupt.h"
 #include "glomap/ceres_threads.h"
 #include "glomap/options_check.h"
+#include "glomap/ray_residual.h"
 #include "glomap/track_filters.h"
 #include "util/timer.h"
 
 namespace glomap {
 namespace {
-
-// r = v - d (X - c) with the unit observed ray v in world coordinates (paper
-// Eq. 5). Parameter blocks: camera centre c, point X, scale d. Analytic
-// Jacobians: the residual is bilinear, so this is exact and cheap.
-class RayResidual : public ceres::SizedCostFunction<3, 3, 3, 1> {
- public:
-  explicit RayResidual(const Eigen::Vector3d& ray_in_world)
-      : ray_in_world_(ray_in_world) {}
-
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override {
-    const double* center = parameters[0];
-    const double* point = parameters[1];
-    const double scale = parameters[2][0];
-    const double diff[3] = {point[0] - center[0], point[1] - center[1],
-                            point[2] - center[2]};
-    for (int i = 0; i < 3; ++i) {
-      residuals[i] = ray_in_world_[i] - scale * diff[i];
-    }
-    if (jacobians == nullptr) return true;
-    for (int block = 0; block < 2; ++block) {
-      if (jacobians[block] == nullptr) continue;
-      // d r / d c = d I, d r / d X = -d I (row-major 3x3).
-      const double value = block == 0 ? scale : -scale;
-      double* jacobian = jacobians[block];
-      for (int i = 0; i < 9; ++i) jacobian[i] = 0;
-      jacobian[0] = jacobian[4] = jacobian[8] = value;
-    }
-    if (jacobians[2] != nullptr) {
-      for (int i = 0; i < 3; ++i) jacobians[2][i] = -diff[i];
-    }
-    return true;
-  }
-
- private:
-  const Eigen::Vector3d ray_in_world_;
-};
 
 // Floor of the ray noise that weights the prior term (radians, 1e-3 px at
 // f = 1000 px): noise-free rays would otherwise give the priors no weight at
@@ -149,6 +114,74 @@ double RayNoisePerAxis(const PositioningData& data,
   std::nth_element(norms.begin(), norms.begin() + norms.size() / 2,
                    norms.end());
   return norms[norms.size() / 2] / std::sqrt(2 * std::log(2.0));
+}
+
+// The start of the joint solve from given centres (state->centers): each
+// point where its rays pass closest (the least-squares point of the rays), or,
+// when the rays are near parallel or the point would lie behind one of its
+// cameras, on its first ray at the median depth of the points that could be
+// placed; each scale at its best value for these (BestRayScale). Observation
+// 0's scale, which the free solve holds fixed as the gauge, is kept away from
+// its lower bound.
+void TriangulateStart(const PositioningData& data,
+                      const std::vector<size_t>& point_offsets,
+                      double min_scale, PositioningState* state) {
+  const size_t num_points = point_offsets.size() - 1;
+  state->points.assign(num_points, Eigen::Vector3d::Zero());
+  std::vector<bool> triangulated(num_points, false);
+  std::vector<double> depths;
+  for (size_t p = 0; p < num_points; ++p) {
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+    for (size_t k = point_offsets[p]; k < point_offsets[p + 1]; ++k) {
+      const Eigen::Vector3d& ray = data.rays_in_world[k];
+      const Eigen::Matrix3d across =
+          Eigen::Matrix3d::Identity() - ray * ray.transpose();
+      normal += across;
+      rhs += across * state->centers[data.observations[k].image_idx];
+    }
+    // Rays within about 1 deg of each other fix no depth.
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(normal);
+    const size_t num_rays = point_offsets[p + 1] - point_offsets[p];
+    if (eigen.eigenvalues()(0) < 1e-4 * num_rays) continue;
+    const Eigen::Vector3d point = normal.ldlt().solve(rhs);
+    bool in_front = point.allFinite();
+    for (size_t k = point_offsets[p]; in_front && k < point_offsets[p + 1];
+         ++k) {
+      in_front =
+          data.rays_in_world[k].dot(
+              point - state->centers[data.observations[k].image_idx]) > 0;
+    }
+    if (!in_front) continue;
+    state->points[p] = point;
+    triangulated[p] = true;
+    const size_t first = point_offsets[p];
+    depths.push_back(
+        (point - state->centers[data.observations[first].image_idx]).norm());
+  }
+  double median_depth = 1;
+  if (!depths.empty()) {
+    std::nth_element(depths.begin(), depths.begin() + depths.size() / 2,
+                     depths.end());
+    if (depths[depths.size() / 2] > 0) median_depth = depths[depths.size() / 2];
+  }
+  for (size_t p = 0; p < num_points; ++p) {
+    if (triangulated[p]) continue;
+    const size_t first = point_offsets[p];
+    state->points[p] = state->centers[data.observations[first].image_idx] +
+                       median_depth * data.rays_in_world[first];
+  }
+  state->scales.resize(data.observations.size());
+  for (size_t k = 0; k < data.observations.size(); ++k) {
+    const Observation& obs = data.observations[k];
+    state->scales[k] = BestRayScale(
+        data.rays_in_world[k],
+        state->points[obs.point_idx] - state->centers[obs.image_idx],
+        min_scale);
+  }
+  if (!state->scales.empty() && state->scales[0] <= 2 * min_scale) {
+    state->scales[0] = 1 / median_depth;
+  }
 }
 
 // One Levenberg-Marquardt solve of the positioning problem from `state`.
@@ -371,18 +404,6 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
     const double z = uniform(rng);
     return Eigen::Vector3d(x, y, z);
   };
-  PositioningState state;
-  state.centers.resize(image_ids.size());
-  for (size_t i = 0; i < image_ids.size(); ++i) {
-    state.centers[i] =
-        options.optimize_positions
-            ? random_vector()
-            : reconstruction->Image(image_ids[i]).ProjectionCenter();
-  }
-  state.points.resize(num_points);
-  for (Eigen::Vector3d& point : state.points) point = random_vector();
-  state.scales.assign(observations.size(), 1.0);
-
   PositioningData data{observations, num_observations_per_image, {}, {}};
   data.rays_in_world.reserve(observations.size());
   data.calibrated.reserve(observations.size());
@@ -396,6 +417,23 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
             .homogeneous()
             .normalized());
     data.calibrated.push_back(camera.HasPriorFocalLength());
+  }
+
+  PositioningState state;
+  state.centers.resize(image_ids.size());
+  const bool keep_centers =
+      !options.optimize_positions || options.start_from_image_centers;
+  for (size_t i = 0; i < image_ids.size(); ++i) {
+    state.centers[i] =
+        keep_centers ? reconstruction->Image(image_ids[i]).ProjectionCenter()
+                     : random_vector();
+  }
+  if (options.start_from_image_centers) {
+    TriangulateStart(data, point_offsets, options.min_scale, &state);
+  } else {
+    state.points.resize(num_points);
+    for (Eigen::Vector3d& point : state.points) point = random_vector();
+    state.scales.assign(observations.size(), 1.0);
   }
 
   ceres::Solver::Summary summary;

@@ -40,6 +40,10 @@ struct GlobalPositioningOptions {
   // side length (the reference's [-100, 100]^3; the paper shows the random
   // start suffices).
   double init_box_size = 100;
+  // Start from the registered images' current centres (c = -R^T t, set by
+  // InitializeCameraCenters, position_initialization.h) with every point
+  // triangulated from its rays, instead of the random start in the box.
+  bool start_from_image_centers = false;
   // Seed of the random initialization (same input + seed => same output).
   int random_seed = 1;
   // Loss weight of observations from cameras without a prior focal length
