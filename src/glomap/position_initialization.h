@@ -31,6 +31,7 @@
 
 #include "base/reconstruction.h"
 #include "glomap/ceres_interrupt.h"
+#include "glomap/ceres_threads.h"
 #include "glomap/status.h"
 #include "glomap/view_graph.h"
 
@@ -51,7 +52,7 @@ struct PositionInitializationOptions {
   // Ceres threads; -1 = all hardware threads.
   int num_threads = -1;
   // One more Ceres thread per this many residual blocks (ceres_threads.h).
-  int min_residuals_per_ceres_thread = 150000;
+  int min_residuals_per_ceres_thread = kMinResidualBlocksPerCeresThread;
 
   // The first violation, naming the field as `prefix` + its name.
   Status Check(const std::string& prefix = "") const;
