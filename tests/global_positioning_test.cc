@@ -232,6 +232,79 @@ TEST(GlobalPositioning, StartsFromImageCenters) {
   EXPECT_LT(error, 1e-3);
 }
 
+// Every image's centre set to the true centre of another image (i -> 7i mod
+// n): a start from image centres in a wrong layout.
+void ShuffleCenters(Scene* scene) {
+  const size_t n = scene->image_ids.size();
+  for (size_t i = 0; i < n; ++i) {
+    colmap::Image& image = scene->reconstruction.Image(scene->image_ids[i]);
+    image.SetTvec(-(image.RotationMatrix() * scene->true_centers[(7 * i) % n]));
+  }
+}
+
+TEST(GlobalPositioning, KeepsTheLowerCostOfTwoStarts) {
+  // From a wrong layout with too few iterations to converge, the random
+  // start is solved too; the lower cost is kept, and the result is exactly
+  // what a solve from the kept start alone gives.
+  GlobalPositioningOptions options;
+  options.start_from_image_centers = true;
+  options.max_num_iterations = 8;
+  // Nothing filtered: the comparison is about the solve, not the filters.
+  options.max_angular_error_deg = 180;
+  options.min_tri_angle_deg = 0;
+  options.min_inlier_observation_ratio = 0;
+  Scene both = MakeRingScene(20, 500, 1.0);
+  ShuffleCenters(&both);
+  GlobalPositioningSummary summary;
+  ASSERT_TRUE(RunGlobalPositioning(options, both.tracks, &both.reconstruction,
+                                   {}, nullptr, &summary)
+                  .ok());
+  std::cout << "  kept the "
+            << (summary.kept_random_start ? "random" : "centres")
+            << " start: cost " << summary.free_solve_cost << ", other "
+            << summary.other_start_cost << std::endl;
+  ASSERT_GE(summary.other_start_cost, 0) << "only one start was solved";
+  EXPECT_LE(summary.free_solve_cost, summary.other_start_cost);
+
+  GlobalPositioningOptions single = options;
+  single.random_start_unless_converged = false;
+  single.start_from_image_centers = !summary.kept_random_start;
+  Scene one = MakeRingScene(20, 500, 1.0);
+  ShuffleCenters(&one);
+  GlobalPositioningSummary one_summary;
+  ASSERT_TRUE(RunGlobalPositioning(single, one.tracks, &one.reconstruction, {},
+                                   nullptr, &one_summary)
+                  .ok());
+  EXPECT_EQ(one_summary.other_start_cost, -1);
+  EXPECT_EQ(one_summary.kept_random_start, summary.kept_random_start);
+  EXPECT_EQ(one_summary.free_solve_cost, summary.free_solve_cost);
+  for (const colmap::image_t image_id : both.image_ids) {
+    EXPECT_EQ(both.reconstruction.Image(image_id).Tvec(),
+              one.reconstruction.Image(image_id).Tvec());
+  }
+}
+
+TEST(GlobalPositioning, ConvergedStartFromCentersIsKept) {
+  // Centres near the truth: the solve from them converges, and no random
+  // start is solved.
+  Scene scene = MakeRingScene(20, 500, 1.0);
+  for (size_t i = 0; i < scene.image_ids.size(); ++i) {
+    colmap::Image& image = scene.reconstruction.Image(scene.image_ids[i]);
+    const Eigen::Vector3d start =
+        scene.true_centers[i] + 0.2 * Eigen::Vector3d(std::sin(i), 0, 0);
+    image.SetTvec(-(image.RotationMatrix() * start));
+  }
+  GlobalPositioningOptions options;
+  options.start_from_image_centers = true;
+  GlobalPositioningSummary summary;
+  ASSERT_TRUE(RunGlobalPositioning(options, scene.tracks, &scene.reconstruction,
+                                   {}, nullptr, &summary)
+                  .ok());
+  EXPECT_FALSE(summary.kept_random_start);
+  EXPECT_EQ(summary.other_start_cost, -1);
+  EXPECT_LT(RelativeCenterError(scene), 5e-3);
+}
+
 // Timing on a longer drive (run with --gtest_also_run_disabled_tests).
 TEST(GlobalPositioning, DISABLED_LongForwardMotionBenchmark) {
   const char* num_images = std::getenv("GP_BENCHMARK_NUM_IMAGES");
@@ -404,7 +477,7 @@ TEST(GlobalPositioning, PriorsGiveModelInPriorFrame) {
   const std::set<colmap::image_t> wrong_ids = {4, 13};
   const PositionPriorTerm priors =
       MakePriors(scene, 0.05, wrong_ids, Eigen::Vector3d(0, 3, 0));
-  GlobalPositioningPriorSummary summary;
+  GlobalPositioningSummary summary;
   ASSERT_TRUE(RunGlobalPositioning({}, scene.tracks, &scene.reconstruction, {},
                                    &priors, &summary)
                   .ok());
@@ -437,7 +510,7 @@ TEST(GlobalPositioning, TooFewPriorsFallBackToFreeSolve) {
       // Collinear when there are ten.
       priors.center_in_frame[scene.image_ids[i]] = Eigen::Vector3d(i, 0, 0);
     }
-    GlobalPositioningPriorSummary summary;
+    GlobalPositioningSummary summary;
     ASSERT_TRUE(RunGlobalPositioning({}, scene.tracks, &scene.reconstruction,
                                      {}, &priors, &summary)
                     .ok());

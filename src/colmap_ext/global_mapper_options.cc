@@ -71,8 +71,8 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "recommended: a wrongly placed camera then goes unnoticed)");
   b.Add("init_positions_from_pairs", &o->init_positions_from_pairs,
         "Start global positioning from camera centres fitted to the pairs' "
-        "translation directions instead of random ones (experimental: "
-        "keeps long streets in one model, worse on dino-363)");
+        "translation directions instead of random ones (keeps long "
+        "streets in one model; see gp_random_start_unless_converged)");
 
   b.Group("Position priors");
   auto& pp = o->position_priors;
@@ -241,6 +241,9 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("gp_min_scale", &gp.min_scale,
         "Lower bound of every ray scale (keeps points in front of their "
         "cameras) [1 / scene units]");
+  b.Add("gp_random_start_unless_converged", &gp.random_start_unless_converged,
+        "With init_positions_from_pairs: if that start does not converge, "
+        "also solve from the random start and keep the lower cost");
   b.Add("gp_init_box_size", &gp.init_box_size,
         "Size of the random initialisation box");
   b.Add("gp_uncalibrated_weight", &gp.uncalibrated_weight,

@@ -546,7 +546,7 @@ Status GlobalMapper::Run(const std::string& database_path,
           options_.position_initialization, view_graph, work, interrupt);
       if (!status.ok()) return status;
     }
-    GlobalPositioningPriorSummary prior_summary;
+    GlobalPositioningSummary prior_summary;
     const Status status = RunGlobalPositioning(
         options_.global_positioning, tracks, work, interrupt,
         prior_term.empty() ? nullptr : &prior_term, &prior_summary);

@@ -44,6 +44,10 @@ struct GlobalPositioningOptions {
   // InitializeCameraCenters, position_initialization.h) with every point
   // triangulated from its rays, instead of the random start in the box.
   bool start_from_image_centers = false;
+  // With start_from_image_centers: when that solve stops without converging
+  // (at max_num_iterations), solve from the random start too and keep the
+  // solution of lower cost.
+  bool random_start_unless_converged = true;
   // Seed of the random initialization (same input + seed => same output).
   int random_seed = 1;
   // Loss weight of observations from cameras without a prior focal length
@@ -81,8 +85,16 @@ struct GlobalPositioningOptions {
   Status Check(const std::string& prefix = "") const;
 };
 
-// What global positioning did with position priors.
-struct GlobalPositioningPriorSummary {
+// What global positioning did: which start its free solve kept, and what it
+// did with position priors.
+struct GlobalPositioningSummary {
+  // The free solve (without priors) that was kept: started from the random
+  // start (true) or from the images' centres, and its final cost.
+  bool kept_random_start = true;
+  double free_solve_cost = 0;
+  // The final cost of the other start's solve when both were solved
+  // (random_start_unless_converged), else -1.
+  double other_start_cost = -1;
   // The result is in the prior frame (metres), fixed by the priors; false:
   // no priors, or they could not fix a similarity (then the model is
   // normalised as without priors and the priors must not be used further).
@@ -108,6 +120,12 @@ struct GlobalPositioningPriorSummary {
 // solver fails, produces non-finite values or a degenerate layout, and
 // Status::Cancelled() when `interrupt` fires.
 //
+// With start_from_image_centers the free solve starts from the images'
+// current centres (points triangulated from them); if it stops without
+// converging and random_start_unless_converged is set, the random start is
+// solved too and the solution of lower cost kept (`prior_summary` says
+// which).
+//
 // With position priors (`priors` not null nor empty; issue 12) the solve
 // from the random start is followed by a robust similarity of its camera
 // centres to the priors (AlignCentersToPriors, threshold
@@ -122,10 +140,11 @@ struct GlobalPositioningPriorSummary {
 // warning says so and the result is that of the free solve, normalised
 // (`georegistered` false); if fewer than three non-collinear priors remain
 // after the rejection, likewise, with the result of the second solve.
-Status RunGlobalPositioning(
-    const GlobalPositioningOptions& options, const TrackStore& tracks,
-    colmap::Reconstruction* reconstruction, const Interrupt& interrupt = {},
-    const PositionPriorTerm* priors = nullptr,
-    GlobalPositioningPriorSummary* prior_summary = nullptr);
+Status RunGlobalPositioning(const GlobalPositioningOptions& options,
+                            const TrackStore& tracks,
+                            colmap::Reconstruction* reconstruction,
+                            const Interrupt& interrupt = {},
+                            const PositionPriorTerm* priors = nullptr,
+                            GlobalPositioningSummary* prior_summary = nullptr);
 
 }  // namespace glomap

@@ -19,12 +19,14 @@
 // these centres and points triangulated from them: this only gives it a
 // start whose large-scale layout is already right.
 //
-// Opt-in (GlobalMapper.init_positions_from_pairs): measured in stop 22 it
-// kept the 5,000-image street (seed 0) and a 3,000-image street (seed 1) in
-// one model (AUC@3 79.5 and 86.9; the random start: 1,992 of 5,000 images
-// in the largest model, and two models with AUC@3 28.9), but lowered
-// dino-363 (363 views around an untextured object) from AUC@3 78.7 to
-// 38.7, not yet understood.
+// On by default (GlobalMapper.init_positions_from_pairs). It kept the
+// 5,000-image street (seed 0) and a 3,000-image street (seed 1) in one model
+// (AUC@3 79.5 and 86.9; the random start: 1,992 of 5,000 images in the
+// largest model, and two models with AUC@3 28.9). Where the pairs'
+// directions are poor (dino-363: 363 views around an untextured object) the
+// joint solve from this start stopped at its cap in a worse minimum (cost
+// 0.193, AUC@3 38.7); such a solve is compared with one from the random
+// start (0.064, AUC@3 78.7) and the lower cost kept (global_positioning.h).
 #pragma once
 
 #include <string>
