@@ -537,8 +537,10 @@ Status GlobalMapper::Run(const std::string& database_path,
   }
   if (interrupt.IsStopped()) return Status::Cancelled();
 
-  // 6. Global positioning: cameras and points jointly from random
-  // initialisation (Sec. 3, the bounded ray objective).
+  // 6. Global positioning: cameras and points jointly (Sec. 3, the bounded
+  // ray objective), started from the centres that the pairs' translation
+  // directions give (and from the paper's random start where that solve
+  // does not converge; the lower cost is kept).
   {
     StageTimer stage("Global positioning", 5, &summary_, callbacks);
     if (options_.init_positions_from_pairs) {
