@@ -323,7 +323,7 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
                             colmap::Reconstruction* reconstruction,
                             const Interrupt& interrupt,
                             const PositionPriorTerm* priors,
-                            GlobalPositioningSummary* prior_summary_out) {
+                            GlobalPositioningSummary* summary_out) {
   if (const Status check = options.Check(); !check.ok()) {
     return Status::Error("Invalid global positioning options: " +
                          check.message());
@@ -335,8 +335,8 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
         "Global positioning: the position priors' standard deviation, loss "
         "scale and rejection threshold must be > 0.");
   }
-  if (prior_summary_out != nullptr) {
-    *prior_summary_out = GlobalPositioningSummary();
+  if (summary_out != nullptr) {
+    *summary_out = GlobalPositioningSummary();
   }
   colmap::Timer timer;
   timer.Start();
@@ -452,8 +452,8 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
       !status.ok()) {
     return status;
   }
-  GlobalPositioningSummary prior_summary;
-  prior_summary.kept_random_start = !options.start_from_image_centers;
+  GlobalPositioningSummary positioning_summary;
+  positioning_summary.kept_random_start = !options.start_from_image_centers;
 
   // A solve from the images' centres that stops at its iteration cap may be
   // in a worse minimum of the same objective than the random start reaches
@@ -481,21 +481,21 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
               << "), cost " << random_summary.final_cost << "; kept the "
               << (keep_random ? "random" : "image-centre")
               << " start's solution.";
-    prior_summary.other_start_cost =
+    positioning_summary.other_start_cost =
         keep_random ? summary.final_cost : random_summary.final_cost;
-    prior_summary.kept_random_start = keep_random;
+    positioning_summary.kept_random_start = keep_random;
     if (keep_random) {
       state = std::move(random_state);
       summary = random_summary;
     }
   }
-  prior_summary.free_solve_cost = summary.final_cost;
+  positioning_summary.free_solve_cost = summary.final_cost;
 
   // With priors: the free solution into the prior frame by a robust
   // similarity, then solved again from there with the prior term (issue 12).
-  // The free solve from a random start is what makes global positioning
-  // robust; the second solve starts at its solution, so it only has to bend
-  // it where the priors disagree with the rays (scale drift, a bent
+  // The free solve (from either start, above) is what makes global
+  // positioning robust; the second solve starts at its solution, so it only has
+  // to bend it where the priors disagree with the rays (scale drift, a bent
   // trajectory), which no similarity can do.
   const bool use_priors = priors != nullptr && !priors->empty();
   if (use_priors) {
@@ -514,7 +514,7 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
                    << " The position priors are not used: the model stays "
                       "in an arbitrary frame.";
     } else {
-      prior_summary.georegistered = true;
+      positioning_summary.georegistered = true;
       // x' = s R x + t: rays turn with the frame, and d (X - c) keeps its
       // length with d' = d / s.
       for (Eigen::Vector3d& center : state.centers) {
@@ -657,42 +657,42 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
         "near the random start).");
   }
 
-  if (prior_summary.georegistered) {
+  if (positioning_summary.georegistered) {
     // A prior still this far from its camera after the solve is wrong (or
     // its camera is): bundle adjustment leaves it out.
-    prior_summary.rejected_image_ids = ImagesFartherFromPrior(
+    positioning_summary.rejected_image_ids = ImagesFartherFromPrior(
         *reconstruction, priors->center_in_frame, priors->MaxErrorM());
     std::vector<Eigen::Vector3d> used_priors;
     for (const colmap::image_t image_id : reconstruction->RegImageIds()) {
       const auto prior = priors->center_in_frame.find(image_id);
       if (prior != priors->center_in_frame.end() &&
-          !std::binary_search(prior_summary.rejected_image_ids.begin(),
-                              prior_summary.rejected_image_ids.end(),
+          !std::binary_search(positioning_summary.rejected_image_ids.begin(),
+                              positioning_summary.rejected_image_ids.end(),
                               image_id)) {
         used_priors.push_back(prior->second);
       }
     }
-    prior_summary.num_priors_used = used_priors.size();
+    positioning_summary.num_priors_used = used_priors.size();
     if (!PriorsFixSimilarity(used_priors)) {
       // The alignment found three non-collinear priors that agree with the
       // cameras, so this takes a solve that moved cameras away from them;
       // the model is then left in the free frame (normalised below) rather
       // than pinned to fewer priors than a similarity needs.
       LOG(WARNING) << "Global positioning: only "
-                   << prior_summary.num_priors_used
+                   << positioning_summary.num_priors_used
                    << " position priors (or collinear ones) lie within "
                    << priors->MaxErrorM()
                    << " m of their camera: the priors are not used, the model "
                       "stays in an arbitrary frame.";
-      prior_summary.georegistered = false;
+      positioning_summary.georegistered = false;
     }
   }
-  if (!prior_summary.georegistered) {
-    prior_summary.num_priors_used = 0;
-    prior_summary.rejected_image_ids.clear();
+  if (!positioning_summary.georegistered) {
+    positioning_summary.num_priors_used = 0;
+    positioning_summary.rejected_image_ids.clear();
     reconstruction->Normalize();
   }
-  if (prior_summary_out != nullptr) *prior_summary_out = prior_summary;
+  if (summary_out != nullptr) *summary_out = positioning_summary;
   return Status::Ok();
 }
 

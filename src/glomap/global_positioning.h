@@ -123,7 +123,7 @@ struct GlobalPositioningSummary {
 // With start_from_image_centers the free solve starts from the images'
 // current centres (points triangulated from them); if it stops without
 // converging and random_start_unless_converged is set, the random start is
-// solved too and the solution of lower cost kept (`prior_summary` says
+// solved too and the solution of lower cost kept (`summary` says
 // which).
 //
 // With position priors (`priors` not null nor empty; issue 12) the solve
@@ -136,7 +136,7 @@ struct GlobalPositioningSummary {
 // their own noise), every scale free, for at most prior_max_num_iterations
 // iterations. The result is then not normalised: it stays in the prior
 // frame, in metres. Priors farther than the threshold from their camera
-// afterwards are rejected (`prior_summary`). If no similarity is found, a
+// afterwards are rejected (`summary`). If no similarity is found, a
 // warning says so and the result is that of the free solve, normalised
 // (`georegistered` false); if fewer than three non-collinear priors remain
 // after the rejection, likewise, with the result of the second solve.
@@ -145,6 +145,6 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
                             colmap::Reconstruction* reconstruction,
                             const Interrupt& interrupt = {},
                             const PositionPriorTerm* priors = nullptr,
-                            GlobalPositioningSummary* prior_summary = nullptr);
+                            GlobalPositioningSummary* summary = nullptr);
 
 }  // namespace glomap
