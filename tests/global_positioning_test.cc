@@ -13,7 +13,7 @@
 #include "base/camera.h"
 #include "base/image.h"
 #include "base/pose.h"
-#include "base/similarity_transform.h"
+#include "tests/support/center_error.h"
 
 namespace glomap {
 namespace {
@@ -144,8 +144,7 @@ Scene MakeForwardScene(int num_images, int num_points, double noise_px,
                    /*max_depth=*/25);
 }
 
-// Mean distance between the estimated and true centres after the best
-// similarity, relative to the extent of the true centres.
+// testing::RelativeCenterError over the registered images.
 double RelativeCenterError(const Scene& scene) {
   std::vector<Eigen::Vector3d> estimated, truth;
   for (size_t i = 0; i < scene.image_ids.size(); ++i) {
@@ -154,17 +153,7 @@ double RelativeCenterError(const Scene& scene) {
         scene.reconstruction.Image(scene.image_ids[i]).ProjectionCenter());
     truth.push_back(scene.true_centers[i]);
   }
-  colmap::SimilarityTransform3 transform;
-  EXPECT_TRUE(transform.Estimate(estimated, truth));
-  double sum_error = 0;
-  Eigen::AlignedBox3d box;
-  for (size_t i = 0; i < estimated.size(); ++i) {
-    Eigen::Vector3d aligned = estimated[i];
-    transform.TransformPoint(&aligned);
-    sum_error += (aligned - truth[i]).norm();
-    box.extend(truth[i]);
-  }
-  return sum_error / estimated.size() / box.diagonal().norm();
+  return testing::RelativeCenterError(estimated, truth);
 }
 
 Status Solve(Scene* scene, GlobalPositioningOptions options = {}) {

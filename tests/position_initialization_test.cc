@@ -8,6 +8,8 @@
 
 #include "base/pose.h"
 #include "base/similarity_transform.h"
+#include "tests/support/camera_rotation.h"
+#include "tests/support/center_error.h"
 
 namespace glomap {
 namespace {
@@ -21,13 +23,11 @@ struct Scene {
   std::vector<Eigen::Vector3d> true_centers;
 };
 
-// World-from-camera rotation looking along `forward` (y roughly down).
+// World-from-camera rotation looking along `forward`, image y roughly along
+// world +y.
 Eigen::Matrix3d Looking(const Eigen::Vector3d& forward) {
-  const Eigen::Vector3d z = forward.normalized();
-  const Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized();
-  Eigen::Matrix3d world_from_cam;
-  world_from_cam << x, z.cross(x), z;
-  return world_from_cam;
+  return testing::CamFromWorldLookingAlong(forward, -Eigen::Vector3d::UnitY())
+      .transpose();
 }
 
 void AddPair(Scene* scene, int i, int j, int num_matches,
@@ -92,25 +92,13 @@ Scene MakeStreet(int num_images, int num_neighbors) {
   return scene;
 }
 
-// Mean distance of the placed centres to the true ones after the best
-// similarity, relative to the extent of the true centres.
+// testing::RelativeCenterError over every image.
 double RelativeCenterError(const Scene& scene) {
-  std::vector<Eigen::Vector3d> estimated, truth;
-  Eigen::AlignedBox3d box;
+  std::vector<Eigen::Vector3d> estimated;
   for (size_t i = 0; i < scene.true_centers.size(); ++i) {
     estimated.push_back(scene.reconstruction.Image(i + 1).ProjectionCenter());
-    truth.push_back(scene.true_centers[i]);
-    box.extend(truth.back());
   }
-  colmap::SimilarityTransform3 transform;
-  EXPECT_TRUE(transform.Estimate(estimated, truth));
-  double sum_error = 0;
-  for (size_t i = 0; i < estimated.size(); ++i) {
-    Eigen::Vector3d aligned = estimated[i];
-    transform.TransformPoint(&aligned);
-    sum_error += (aligned - truth[i]).norm();
-  }
-  return sum_error / estimated.size() / box.diagonal().norm();
+  return testing::RelativeCenterError(estimated, scene.true_centers);
 }
 
 // Fraction of the images i whose estimated order along the street relative
