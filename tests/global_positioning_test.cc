@@ -294,6 +294,63 @@ TEST(GlobalPositioning, ConvergedStartFromCentersIsKept) {
   EXPECT_LT(RelativeCenterError(scene), 5e-3);
 }
 
+TEST(GlobalPositioning, RandomStartStillBehindAtTheCheckIsStopped) {
+  // Centres a quarter of the ring's radius from the truth, too few
+  // iterations to converge: the random start is solved too, and stopped at
+  // its check iteration, where its cost is still far above; the result is
+  // the solve from the centres alone.
+  auto near_truth = []() {
+    Scene scene = MakeRingScene(20, 500, 1.0);
+    for (size_t i = 0; i < scene.image_ids.size(); ++i) {
+      colmap::Image& image = scene.reconstruction.Image(scene.image_ids[i]);
+      const Eigen::Vector3d start =
+          scene.true_centers[i] +
+          2.0 * Eigen::Vector3d(std::sin(i), std::cos(3 * i), 0);
+      image.SetTvec(-(image.RotationMatrix() * start));
+    }
+    return scene;
+  };
+  GlobalPositioningOptions options;
+  options.start_from_image_centers = true;
+  options.max_num_iterations = 3;
+  options.random_start_check_iterations = 2;
+  Scene both = near_truth();
+  GlobalPositioningSummary summary;
+  ASSERT_TRUE(RunGlobalPositioning(options, both.tracks, &both.reconstruction,
+                                   {}, nullptr, &summary)
+                  .ok());
+  ASSERT_GE(summary.other_start_cost, 0) << "the centres' solve converged";
+  EXPECT_TRUE(summary.random_start_stopped_early);
+  EXPECT_FALSE(summary.kept_random_start);
+  EXPECT_GT(summary.other_start_cost, summary.free_solve_cost);
+
+  GlobalPositioningOptions centres_only = options;
+  centres_only.random_start_unless_converged = false;
+  Scene one = near_truth();
+  GlobalPositioningSummary one_summary;
+  ASSERT_TRUE(RunGlobalPositioning(centres_only, one.tracks,
+                                   &one.reconstruction, {}, nullptr,
+                                   &one_summary)
+                  .ok());
+  EXPECT_FALSE(one_summary.random_start_stopped_early);
+  EXPECT_EQ(one_summary.free_solve_cost, summary.free_solve_cost);
+  for (const colmap::image_t image_id : both.image_ids) {
+    EXPECT_EQ(both.reconstruction.Image(image_id).Tvec(),
+              one.reconstruction.Image(image_id).Tvec());
+  }
+
+  // Without the check, the same random solve runs to its cap.
+  options.random_start_check_iterations = 0;
+  Scene unchecked = near_truth();
+  GlobalPositioningSummary unchecked_summary;
+  ASSERT_TRUE(RunGlobalPositioning(options, unchecked.tracks,
+                                   &unchecked.reconstruction, {}, nullptr,
+                                   &unchecked_summary)
+                  .ok());
+  EXPECT_FALSE(unchecked_summary.random_start_stopped_early);
+  EXPECT_LT(unchecked_summary.other_start_cost, summary.other_start_cost);
+}
+
 // Timing on a longer drive (run with --gtest_also_run_disabled_tests).
 TEST(GlobalPositioning, DISABLED_LongForwardMotionBenchmark) {
   const char* num_images = std::getenv("GP_BENCHMARK_NUM_IMAGES");

@@ -244,6 +244,9 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("gp_random_start_unless_converged", &gp.random_start_unless_converged,
         "With init_positions_from_pairs: if that start does not converge, "
         "also solve from the random start and keep the lower cost");
+  b.Add("gp_random_start_check_iterations", &gp.random_start_check_iterations,
+        "That random solve is stopped after this many iterations if its cost "
+        "is still above the other start's final cost (0: never)");
   b.Add("gp_init_box_size", &gp.init_box_size,
         "Size of the random initialisation box");
   b.Add("gp_uncalibrated_weight", &gp.uncalibrated_weight,

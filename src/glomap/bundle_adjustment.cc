@@ -564,8 +564,10 @@ Status Solve(const GlobalBundleAdjustmentOptions& options,
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
   *num_iterations = static_cast<int>(summary.iterations.size());
-  // One line per solve: whether it converged or hit the iteration cap, and
-  // the cost it reached.
+  // One line per solve: whether it converged or hit the iteration cap, the
+  // cost it reached, and where its time went (the linear solver factorizes
+  // the reduced camera system; the evaluations are the residuals and
+  // Jacobians of every observation).
   LOG(INFO) << "BA solve (" << (fix_rotations ? "fixed rotations" : "joint")
             << ", " << image_ids.size() << " images, "
             << problem.NumResidualBlocks() << " residual blocks, "
@@ -575,7 +577,11 @@ Status Solve(const GlobalBundleAdjustmentOptions& options,
             << ceres::TerminationTypeToString(summary.termination_type)
             << "), cost " << summary.initial_cost << " -> "
             << summary.final_cost << ", " << summary.total_time_in_seconds
-            << " s";
+            << " s (linear solver " << summary.linear_solver_time_in_seconds
+            << " s, evaluation "
+            << summary.residual_evaluation_time_in_seconds +
+                   summary.jacobian_evaluation_time_in_seconds
+            << " s)";
   // Ceres leaves the last accepted state in the blocks, also when stopped.
   for (const auto& [image_id, pose] : poses) {
     FromPoseBlock(pose, &reconstruction->Image(image_id));

@@ -184,14 +184,41 @@ void TriangulateStart(const PositioningData& data,
   }
 }
 
+// Stops a solve at one iteration if its cost is not below a bound then
+// (GlobalPositioningOptions::random_start_check_iterations).
+class StopIfBehind : public ceres::IterationCallback {
+ public:
+  StopIfBehind(int check_iteration, double cost_to_beat)
+      : check_iteration_(check_iteration), cost_to_beat_(cost_to_beat) {}
+
+  ceres::CallbackReturnType operator()(
+      const ceres::IterationSummary& summary) override {
+    if (summary.iteration == check_iteration_ &&
+        summary.cost >= cost_to_beat_) {
+      stopped_ = true;
+      return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+    }
+    return ceres::SOLVER_CONTINUE;
+  }
+
+  bool stopped() const { return stopped_; }
+
+ private:
+  const int check_iteration_;
+  const double cost_to_beat_;
+  bool stopped_ = false;
+};
+
 // One Levenberg-Marquardt solve of the positioning problem from `state`.
 // Without priors the gauge (translation left to the damping, scale fixed by
 // one scale at 1) is as in the reference; with them the priors fix it, and
-// every scale is free.
+// every scale is free. `stop_if_behind`, if not null, may end the solve
+// early.
 Status SolvePositions(const GlobalPositioningOptions& options,
                       const PositioningData& data, const PriorResiduals* priors,
                       const Interrupt& interrupt, PositioningState* state,
-                      ceres::Solver::Summary* summary) {
+                      ceres::Solver::Summary* summary,
+                      StopIfBehind* stop_if_behind = nullptr) {
   const std::vector<Observation>& observations = data.observations;
   std::vector<Eigen::Vector3d>& centers = state->centers;
   std::vector<Eigen::Vector3d>& points = state->points;
@@ -281,6 +308,9 @@ Status SolvePositions(const GlobalPositioningOptions& options,
   solver_options.logging_type = ceres::SILENT;
   InterruptCallback interrupt_callback(interrupt);
   solver_options.callbacks.push_back(&interrupt_callback);
+  if (stop_if_behind != nullptr) {
+    solver_options.callbacks.push_back(stop_if_behind);
+  }
   ceres::Solve(solver_options, &problem, summary);
 
   if (interrupt.IsStopped()) return Status::Cancelled();
@@ -301,6 +331,8 @@ Status GlobalPositioningOptions::Check(const std::string& prefix) const {
   check.GreaterThan("loss_scale", loss_scale, 0);
   check.AtLeast("max_num_iterations", max_num_iterations, 0);
   check.AtLeast("prior_max_num_iterations", prior_max_num_iterations, 0);
+  check.AtLeast("random_start_check_iterations", random_start_check_iterations,
+                0);
   check.AtLeast("function_tolerance", function_tolerance, 0);
   check.GreaterThan("init_box_size", init_box_size, 0);
   check.GreaterThan("uncalibrated_weight", uncalibrated_weight, 0);
@@ -460,29 +492,43 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
   // (measured on dino-363, where many pairs' directions are wrong): the
   // random start is solved too and the lower cost kept. Both minimise the
   // same cost, so the comparison is fair; the random solve is the one a run
-  // without position initialization makes (same seed, same draws).
+  // without position initialization makes (same seed, same draws), unless it
+  // is stopped while still behind (random_start_check_iterations; a solve
+  // stopped there would not be kept anyway, its cost being above).
   if (options.start_from_image_centers &&
       options.random_start_unless_converged &&
       summary.termination_type != ceres::CONVERGENCE) {
     PositioningState random_state = random_start();
     ceres::Solver::Summary random_summary;
-    if (const Status status = SolvePositions(options, data, nullptr, interrupt,
-                                             &random_state, &random_summary);
+    std::unique_ptr<StopIfBehind> stop_if_behind;
+    if (options.random_start_check_iterations > 0) {
+      stop_if_behind = std::make_unique<StopIfBehind>(
+          options.random_start_check_iterations, summary.final_cost);
+    }
+    if (const Status status =
+            SolvePositions(options, data, nullptr, interrupt, &random_state,
+                           &random_summary, stop_if_behind.get());
         !status.ok()) {
       return status;
     }
-    const bool keep_random = random_summary.final_cost < summary.final_cost;
+    const bool stopped_early =
+        stop_if_behind != nullptr && stop_if_behind->stopped();
+    const bool keep_random =
+        !stopped_early && random_summary.final_cost < summary.final_cost;
     LOG(INFO) << "Global positioning: the start from the image centres "
                  "stopped without converging ("
               << summary.iterations.size() << " iterations, cost "
               << summary.final_cost << "); from the random start: "
               << random_summary.iterations.size() << " iterations ("
-              << ceres::TerminationTypeToString(random_summary.termination_type)
+              << (stopped_early ? "stopped, still behind"
+                                : ceres::TerminationTypeToString(
+                                      random_summary.termination_type))
               << "), cost " << random_summary.final_cost << "; kept the "
               << (keep_random ? "random" : "image-centre")
               << " start's solution.";
     positioning_summary.other_start_cost =
         keep_random ? summary.final_cost : random_summary.final_cost;
+    positioning_summary.random_start_stopped_early = stopped_early;
     positioning_summary.kept_random_start = keep_random;
     if (keep_random) {
       state = std::move(random_state);
