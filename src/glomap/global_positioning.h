@@ -51,9 +51,10 @@ struct GlobalPositioningOptions {
   // ... but that random solve is stopped after this many iterations when its
   // cost is still above the final cost of the solve from the centres: the
   // random start spends its first iterations gathering the cameras out of
-  // the box, and one that is still behind then has not been seen to catch
-  // up (1,000-image street: 70.5 at iteration 25 against 2.72, 2.75 after
-  // the full 100). 0: never stopped early.
+  // the box, and none still behind then was seen to end in a better
+  // minimum (1,000-image street: 70.5 at iteration 25 against 2.72, 2.75
+  // after the full 100; on KITTI 0.4-0.7% lower, in the same minimum; the
+  // README's scale section has the 18 runs). 0: never stopped early.
   int random_start_check_iterations = 25;
   // Seed of the random initialization (same input + seed => same output).
   int random_seed = 1;
