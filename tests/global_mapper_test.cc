@@ -528,7 +528,25 @@ struct RealCase {
   double min_auc3;                // AUC@3 bar, percent
   double best_reference_pos_err;  // mean position error, GT units
   double absolute_max_pos_err;    // when > 0, an absolute bar instead
+  // How far seed 0's model may be from its record.
+  testing::ModelRecordTolerances record_tolerances = {};
 };
+
+// dino-363 (untextured, many wrong pairs) does not come out to the last
+// digits on another CPU: a Release build on an AMD EPYC gave centres up to
+// 1.5e-3 of the scene size and rotations up to 0.16 deg from the record made
+// on the previous CI machine, k1 0.271 against 0.248 and 2,853 points
+// against 2,856, with the same AUC@3 within 0.1. Its record therefore only
+// catches changes well beyond that; the other datasets keep the tight
+// default.
+testing::ModelRecordTolerances AcrossCpusTolerances() {
+  testing::ModelRecordTolerances tolerances;
+  tolerances.max_center_difference_ratio = 5e-3;
+  tolerances.max_rotation_difference_deg = 0.5;
+  tolerances.max_camera_param_difference = 0.2;
+  tolerances.max_count_difference_ratio = 1e-2;
+  return tolerances;
+}
 
 class GlobalMapperRealData
     : public ::testing::TestWithParam<std::tuple<RealCase, int>> {};
@@ -585,7 +603,8 @@ TEST_P(GlobalMapperRealData, MatchesReferenceMappers) {
                       .ok());
     } else {
       const std::vector<std::string> differences =
-          testing::CompareWithModelRecord(result.models[0], record_path);
+          testing::CompareWithModelRecord(result.models[0], record_path,
+                                          c.record_tolerances);
       std::string report;
       for (const std::string& line : differences) report += line + "\n";
       EXPECT_TRUE(differences.empty())
@@ -612,7 +631,8 @@ INSTANTIATE_TEST_SUITE_P(
                           RealCase{"castle-P19", 19, 78.3 - 0.5, 0.1283, 0},
                           RealCase{"templeRing", 47, 69.2 - 0.5, 0.001034, 0},
                           RealCase{"KITTI_sequence_1", 51, 66.2 - 0.5, 0, 0.02},
-                          RealCase{"dino-363", 363, 70.2 - 1.0, 0.002523, 0}),
+                          RealCase{"dino-363", 363, 70.2 - 1.0, 0.002523, 0,
+                                   AcrossCpusTolerances()}),
         ::testing::Values(0, 1)),
     [](const auto& info) {
       std::string name = std::get<0>(info.param).name;
