@@ -310,6 +310,48 @@ TEST(SyntheticScene, CameraModelsAndPriors) {
   CheckGroundTruth(options, all_models);
 }
 
+// One database camera per image (COLMAP's extractor default) over two
+// physical cameras: every image gets a camera of its own, a copy of its
+// physical camera's database entry; keypoints, matches and the ground truth
+// are those of the same scene with one database camera per physical camera.
+TEST(SyntheticScene, DatabaseCameraPerImage) {
+  SyntheticSceneOptions options;
+  options.num_images = 12;
+  options.num_cameras = 2;
+  options.camera_model = "SIMPLE_RADIAL,OPENCV";
+  options.prior_focal_length = false;
+  options.max_pairs_per_image = 4;
+  Scene shared;
+  MakeScene(options, "per_physical_camera", &shared);
+  options.database_camera_per_image = true;
+  Scene per_image;
+  MakeScene(options, "per_image", &per_image);
+  ASSERT_EQ(per_image.reconstruction.NumCameras(), 12);
+  EXPECT_EQ(per_image.ground_truth.NumCameras(), 2);
+  for (const auto& [image_id, image] : per_image.reconstruction.Images()) {
+    EXPECT_EQ(image.CameraId(), image_id);
+    const colmap::Camera& camera = per_image.reconstruction.Camera(image_id);
+    const colmap::Camera& physical = shared.reconstruction.Camera(
+        shared.reconstruction.Image(image_id).CameraId());
+    EXPECT_EQ(camera.ModelId(), physical.ModelId());
+    EXPECT_EQ(camera.Params(), physical.Params());
+    EXPECT_FALSE(camera.HasPriorFocalLength());
+    EXPECT_EQ(per_image.ground_truth.Image(image_id).CameraId(),
+              shared.ground_truth.Image(image_id).CameraId());
+  }
+  EXPECT_EQ(per_image.view_graph.Pairs().size(),
+            shared.view_graph.Pairs().size());
+  for (const auto& [pair_id, pair] : per_image.view_graph.Pairs()) {
+    const ImagePair& same = shared.view_graph.Pairs().at(pair_id);
+    ASSERT_EQ(pair.matches.size(), same.matches.size());
+    for (size_t m = 0; m < pair.matches.size(); ++m) {
+      EXPECT_EQ(pair.matches[m].point2D_idx1, same.matches[m].point2D_idx1);
+      EXPECT_EQ(pair.matches[m].point2D_idx2, same.matches[m].point2D_idx2);
+    }
+    EXPECT_EQ(pair.F, same.F);
+  }
+}
+
 TEST(SyntheticScene, OtherLayouts) {
   for (const std::string layout : {"forward", "grid"}) {
     SCOPED_TRACE(layout);

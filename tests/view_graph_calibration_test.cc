@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "base/pose.h"
@@ -322,13 +323,15 @@ TEST(ViewGraphCalibration, DegenerateInputsDoNotCrash) {
 // COLMAP's matcher does. The camera starts at COLMAP's guess, 1.2 x 640 px,
 // without a prior. With a long lens (3300 px, an 11 degree field of view,
 // like dino-363) and no jitter, every optical axis passes through the
-// centre.
+// centre. With `camera_per_image` every image has a camera of its own (ids
+// equal to the image ids), all with the same start values, as COLMAP's
+// feature extractor writes them by default.
 constexpr int kWidth = 640;
 constexpr int kHeight = 480;
 
 void MakeOrbit(double focal, double ball_radius, double target_jitter,
                std::mt19937* rng, colmap::Reconstruction* reconstruction,
-               ViewGraph* view_graph) {
+               ViewGraph* view_graph, bool camera_per_image = false) {
   std::uniform_real_distribution<double> uniform(-1, 1);
   std::normal_distribution<double> noise(0, 0.5);
   colmap::Camera camera;
@@ -362,14 +365,17 @@ void MakeOrbit(double focal, double ball_radius, double target_jitter,
     colmap::Image image;
     image.SetImageId(i + 1);
     image.SetName("image" + std::to_string(i + 1));
-    image.SetCameraId(1);
+    image.SetCameraId(camera_per_image ? i + 1 : 1);
     image.SetPoints2D(keypoints);
     reconstruction->AddImage(image);
     directions.push_back(direction);
   }
   camera.SetParams({1.2 * kWidth, kWidth / 2.0, kHeight / 2.0, 0});
   camera.SetPriorFocalLength(false);
-  reconstruction->AddCamera(camera);
+  for (int c = 0; c < (camera_per_image ? kNumViews : 1); ++c) {
+    camera.SetCameraId(c + 1);
+    reconstruction->AddCamera(camera);
+  }
 
   colmap::SetPRNGSeed(3);
   for (int i = 0; i < kNumViews; ++i) {
@@ -451,6 +457,39 @@ TEST(ViewGraphCalibration, SmallReconstructionFindsTheFocalOfAnOrbit) {
                                  &view_graph2)
                   .ok());
   EXPECT_EQ(with_prior.Camera(1).MeanFocalLength(), 1.2 * kWidth);
+}
+
+// The orbit with one camera per image, as COLMAP's feature extractor writes
+// a project by default: each camera has one image, which says almost
+// nothing about its focal, so calibrated one by one every camera keeps
+// COLMAP's guess (templeRing, 47 cameras: all within 0.5% of 768 px for a
+// true 1520 px). Calibrated as one (the default), the identical cameras get
+// the orbit's focal, as one shared camera does.
+TEST(ViewGraphCalibration, IdenticalCamerasOfOneImageEachAreCalibratedAsOne) {
+  for (const bool as_one : {false, true}) {
+    std::mt19937 rng(11);
+    colmap::Reconstruction reconstruction;
+    ViewGraph view_graph;
+    MakeOrbit(3300, 0.7, 0, &rng, &reconstruction, &view_graph,
+              /*camera_per_image=*/true);
+    ASSERT_EQ(reconstruction.NumCameras(), 36);
+    ViewGraphCalibrationOptions options;
+    options.calibrate_identical_cameras_as_one = as_one;
+    ASSERT_TRUE(CalibrateViewGraph(options, &reconstruction, &view_graph).ok());
+    int num_calibrated = 0;
+    for (const auto& [camera_id, camera] : reconstruction.Cameras()) {
+      if (std::abs(camera.MeanFocalLength() - 3300) < 0.05 * 3300) {
+        ++num_calibrated;
+      }
+      if (as_one) {
+        EXPECT_EQ(camera.Params(), reconstruction.Camera(1).Params());
+      }
+    }
+    std::cout << (as_one ? "as one" : "one by one") << ": camera 1 focal "
+              << reconstruction.Camera(1).MeanFocalLength() << " px, "
+              << num_calibrated << " of 36 within 5% of 3300 px" << std::endl;
+    EXPECT_EQ(num_calibrated, as_one ? 36 : 0);
+  }
 }
 
 // A wide lens (500 px, a 65 degree field of view) whose axes do not all

@@ -58,6 +58,11 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("min_model_size", &o->min_model_size,
         "Camera clusters with fewer images are not written (at least 2: "
         "a two-image project needs 2)");
+  b.Add("merge_identical_cameras", &o->merge_identical_cameras,
+        "Cameras without a focal prior with identical model, size and "
+        "parameters (one camera per image, as feature_extractor writes them "
+        "by default) are calibrated and refined as one camera; every image "
+        "keeps its own camera in the output, with those intrinsics");
   b.Add("skip_view_graph_calibration", &o->skip_view_graph_calibration,
         "Keep the database's focal lengths");
   b.Add("skip_bundle_adjustment", &o->skip_bundle_adjustment,
@@ -98,6 +103,12 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
 
   b.Group("View graph calibration");
   auto& vgc = o->view_graph_calibration;
+  b.Add("vgc_calibrate_identical_cameras_as_one",
+        &vgc.calibrate_identical_cameras_as_one,
+        "Cameras without a focal prior with identical model, size and "
+        "parameters (one camera per image, as feature_extractor writes them) "
+        "get one focal length in view-graph calibration; bundle adjustment "
+        "still refines each");
   b.Add("vgc_min_focal_ratio", &vgc.min_focal_ratio,
         "Reject a new focal length below this ratio of the old one");
   b.Add("vgc_max_focal_ratio", &vgc.max_focal_ratio,

@@ -420,6 +420,21 @@ Status GlobalMapper::Run(const std::string& database_path,
   }
   if (interrupt.IsStopped()) return Status::Cancelled();
 
+  // Identical cameras without a focal prior are one camera until the output.
+  MergedCameras merged_cameras;
+  if (options_.merge_identical_cameras) {
+    merged_cameras = MergeIdenticalCameras(work);
+    if (merged_cameras.num_groups > 0) {
+      LOG(INFO) << merged_cameras.num_cameras
+                << " cameras without a focal prior are identical in the "
+                   "database ("
+                << merged_cameras.num_groups
+                << " group(s)): each group is calibrated and refined as one "
+                   "camera, and every image keeps its own camera in the "
+                   "output (GlobalMapper.merge_identical_cameras).";
+    }
+  }
+
   // Position priors (issue 12), validated and in one metric frame; empty
   // when off or unusable (the free solve, as without priors).
   PositionPriorTerm prior_term;
@@ -702,6 +717,7 @@ Status GlobalMapper::Run(const std::string& database_path,
       colmap::Reconstruction model =
           work_moved ? std::exchange(*work, colmap::Reconstruction())
                      : ExtractCluster(*work, cluster);
+      SplitMergedCameras(merged_cameras, &model);
       if (georegistration_.georegistered) {
         // In the prior frame, in metres: only the offset taken out for the
         // solve is put back.
@@ -749,7 +765,10 @@ Status GlobalMapper::Run(const std::string& database_path,
             << summary_.num_replaced_images << " and left out "
             << summary_.num_deregistered_images << " image(s).";
   // An emptied `work` is not worth showing: the caller shows the models.
-  if (!work_moved) model_changed();
+  if (!work_moved) {
+    SplitMergedCameras(merged_cameras, work);
+    model_changed();
+  }
   return Status::Ok();
 }
 

@@ -11,6 +11,7 @@
 #include "base/reconstruction.h"
 #include "glomap/bundle_adjustment.h"
 #include "glomap/camera_clustering.h"
+#include "glomap/camera_groups.h"
 #include "glomap/ceres_threads.h"
 #include "glomap/database_reader.h"
 #include "glomap/global_positioning.h"
@@ -63,6 +64,13 @@ struct GlobalMapperOptions {
   // 5,000-image streets in one model where the random start alone splits
   // them (issue 14); on dino-363 the random start wins the comparison.
   bool init_positions_from_pairs = true;
+
+  // Cameras without a focal prior that are identical in the database (model,
+  // size, every parameter: one camera per image, as feature_extractor writes
+  // them by default) are one camera from the database to the output, where
+  // every image gets its own camera back with the shared intrinsics (see
+  // camera_groups.h). Off: every camera is calibrated and refined on its own.
+  bool merge_identical_cameras = true;
 
   // Models (camera clusters) with fewer registered images are discarded.
   int min_model_size = 3;

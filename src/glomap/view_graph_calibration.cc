@@ -9,6 +9,7 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <string>
 #include <unordered_set>
 #include <utility>
 #include <vector>
@@ -223,6 +224,29 @@ double ReferenceFocal(const colmap::Camera& camera) {
   return guess > 0 ? guess : 1.0;
 }
 
+// Members of every calibration group (see IdenticalCameraGroups), by group.
+std::map<colmap::camera_t, std::vector<colmap::camera_t>> GroupMembers(
+    const CameraGroups& group_of) {
+  std::map<colmap::camera_t, std::vector<colmap::camera_t>> members;
+  for (const auto& [camera_id, group] : group_of) {
+    members[group].push_back(camera_id);
+  }
+  return members;
+}
+
+// Writes `focal_px` into every focal parameter of every camera of `group`.
+void SetGroupFocal(
+    const std::map<colmap::camera_t, std::vector<colmap::camera_t>>& members,
+    colmap::camera_t group, double focal_px,
+    colmap::Reconstruction* reconstruction) {
+  for (const colmap::camera_t camera_id : members.at(group)) {
+    colmap::Camera& camera = reconstruction->Camera(camera_id);
+    for (const size_t idx : camera.FocalLengthIdxs()) {
+      camera.Params(idx) = focal_px;
+    }
+  }
+}
+
 struct PairConstraint {
   ImagePair* pair = nullptr;
   colmap::camera_t camera_id1 = colmap::kInvalidCameraId;
@@ -346,8 +370,9 @@ double MedianRotationBiasDeg(
 }
 
 struct SmallReconstructionResult {
-  // Refined focal of every camera without a prior that has at least
-  // multi_view_min_num_images_per_camera registered images in it.
+  // Refined focal of every calibration group without a prior (by group id)
+  // that has at least multi_view_min_num_images_per_camera registered images
+  // in it.
   std::map<colmap::camera_t, double> focals;
   // MedianRotationBiasDeg of the cameras on entry.
   double rotation_bias_deg = -1;
@@ -355,13 +380,17 @@ struct SmallReconstructionResult {
 };
 
 // Builds the small reconstruction of `image_ids` with COLMAP's incremental
-// mapper, every camera starting from `initial_cameras`. Stops early when
-// `interrupt` fires (the result is then not used).
+// mapper, every camera starting from `initial_cameras`; the images of one
+// calibration group see one camera there (the group's, with the group's id),
+// so that a group of single-image cameras has one focal that all its images
+// determine. Stops early when `interrupt` fires (the result is then not
+// used).
 SmallReconstructionResult FocalsFromSmallReconstruction(
     const ViewGraphCalibrationOptions& options, const ViewGraph& view_graph,
     const colmap::Reconstruction& reconstruction,
     const std::map<colmap::camera_t, colmap::Camera>& initial_cameras,
-    const std::vector<colmap::image_t>& image_ids, const Interrupt& interrupt) {
+    const CameraGroups& group_of, const std::vector<colmap::image_t>& image_ids,
+    const Interrupt& interrupt) {
   const size_t min_num_matches =
       static_cast<size_t>(options.multi_view_min_num_matches);
   const size_t min_num_images_per_camera =
@@ -373,13 +402,16 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
                                                      image_ids.end());
   for (const colmap::image_t image_id : image_ids) {
     const colmap::Image& source = reconstruction.Image(image_id);
-    if (!cache.ExistsCamera(source.CameraId())) {
-      const auto initial = initial_cameras.find(source.CameraId());
+    const colmap::camera_t group = group_of.at(source.CameraId());
+    if (!cache.ExistsCamera(group)) {
+      const auto initial = initial_cameras.find(group);
       cache.AddCamera(initial != initial_cameras.end()
                           ? initial->second
-                          : reconstruction.Camera(source.CameraId()));
+                          : reconstruction.Camera(group));
     }
-    cache.AddImage(KeypointImage(source));  // Also adds it to the graph.
+    colmap::Image image = KeypointImage(source);
+    image.SetCameraId(group);
+    cache.AddImage(image);  // Also adds it to the graph.
   }
   std::vector<std::pair<const ImagePair*, colmap::FeatureMatches>> matches;
   std::map<colmap::image_t, std::vector<int>> num_pairs_per_keypoint;
@@ -603,13 +635,15 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
   return result;
 }
 
-// The multi-view step of CalibrateViewGraph: sets the focal of every free
-// camera that the small reconstruction calibrates (within the ratio bounds
-// relative to `initial_cameras`) and returns their ids.
+// The multi-view step of CalibrateViewGraph: sets the focal of every camera
+// of every free calibration group that the small reconstruction calibrates
+// (within the ratio bounds relative to `initial_cameras`) and returns the
+// ids of those groups.
 std::vector<colmap::camera_t> CalibrateFromSmallReconstruction(
     const ViewGraphCalibrationOptions& options, const ViewGraph& view_graph,
     const std::map<colmap::camera_t, colmap::Camera>& initial_cameras,
-    colmap::Reconstruction* reconstruction, const Interrupt& interrupt) {
+    const CameraGroups& group_of, colmap::Reconstruction* reconstruction,
+    const Interrupt& interrupt) {
   if (options.multi_view_num_images <= 0 || initial_cameras.empty()) {
     return {};
   }
@@ -621,9 +655,9 @@ std::vector<colmap::camera_t> CalibrateFromSmallReconstruction(
       static_cast<size_t>(options.multi_view_min_num_images_per_camera)) {
     return {};
   }
-  const SmallReconstructionResult small =
-      FocalsFromSmallReconstruction(options, view_graph, *reconstruction,
-                                    initial_cameras, image_ids, interrupt);
+  const SmallReconstructionResult small = FocalsFromSmallReconstruction(
+      options, view_graph, *reconstruction, initial_cameras, group_of,
+      image_ids, interrupt);
   if (small.focals.empty() || interrupt.IsStopped()) return {};
   // The focal matters before bundle adjustment only through the relative
   // poses: where the current focals give the same relative rotations as the
@@ -635,27 +669,30 @@ std::vector<colmap::camera_t> CalibrateFromSmallReconstruction(
               << small.rotation_bias_deg << " deg); they are kept.";
     return {};
   }
+  const auto members = GroupMembers(group_of);
   std::vector<colmap::camera_t> calibrated;
-  for (const auto& [camera_id, focal] : small.focals) {
-    const auto initial = initial_cameras.find(camera_id);
+  for (const auto& [group, focal] : small.focals) {
+    const auto initial = initial_cameras.find(group);
     if (initial == initial_cameras.end()) continue;
     const double ratio = focal / initial->second.MeanFocalLength();
     if (!std::isfinite(ratio) || ratio < options.min_focal_ratio ||
         ratio > options.max_focal_ratio) {
       continue;
     }
-    colmap::Camera& camera = reconstruction->Camera(camera_id);
-    LOG(INFO) << "View-graph calibration: camera " << camera_id << " focal "
-              << focal << " px from a small reconstruction of "
-              << small.num_registered
-              << " images (fundamental matrices: " << camera.MeanFocalLength()
+    const size_t num_cameras = members.at(group).size();
+    LOG(INFO) << "View-graph calibration: "
+              << (num_cameras == 1
+                      ? "camera " + std::to_string(group)
+                      : std::to_string(num_cameras) + " identical cameras (" +
+                            std::to_string(group) + ", ...)")
+              << " focal " << focal << " px from a small reconstruction of "
+              << small.num_registered << " images (fundamental matrices: "
+              << reconstruction->Camera(group).MeanFocalLength()
               << " px, start " << initial->second.MeanFocalLength()
               << " px; relative rotations differ by " << small.rotation_bias_deg
               << " deg in the median)";
-    for (const size_t idx : camera.FocalLengthIdxs()) {
-      camera.Params(idx) = focal;
-    }
-    calibrated.push_back(camera_id);
+    SetGroupFocal(members, group, focal, reconstruction);
+    calibrated.push_back(group);
   }
   return calibrated;
 }
@@ -723,7 +760,19 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
                          check.message());
   }
 
-  // Normalised focal phi_c = f_c / s_c per camera, 1 at the start; std::map
+  // One unknown focal per calibration group (IdenticalCameraGroups), each
+  // group named by its smallest camera id.
+  CameraGroups group_of;
+  if (options.calibrate_identical_cameras_as_one) {
+    group_of = IdenticalCameraGroups(*reconstruction);
+  } else {
+    for (const auto& [camera_id, camera] : reconstruction->Cameras()) {
+      group_of.emplace(camera_id, camera_id);
+    }
+  }
+  const auto members = GroupMembers(group_of);
+
+  // Normalised focal phi_g = f_g / s_g per group, 1 at the start; std::map
   // keeps the parameter addresses stable and the order deterministic.
   std::map<colmap::camera_t, double> phis;
   std::map<colmap::camera_t, double> reference_focals;
@@ -779,16 +828,20 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
                                    &constraint.coeffs)) {
       continue;
     }
-    reference_focals[constraint.camera_id1] = s1;
-    reference_focals[constraint.camera_id2] = s2;
-    phis.emplace(constraint.camera_id1, 1.0);
-    phis.emplace(constraint.camera_id2, 1.0);
+    // Cameras of one group have identical parameters, so s and the
+    // principal point are the group's.
+    const colmap::camera_t group1 = group_of.at(constraint.camera_id1);
+    const colmap::camera_t group2 = group_of.at(constraint.camera_id2);
+    reference_focals[group1] = s1;
+    reference_focals[group2] = s2;
+    phis.emplace(group1, 1.0);
+    phis.emplace(group2, 1.0);
     constraints.push_back(constraint);
   }
 
   if (constraints.empty()) {
     CalibrateFromSmallReconstruction(options, *view_graph, initial_cameras,
-                                     reconstruction, interrupt);
+                                     group_of, reconstruction, interrupt);
     return interrupt.IsStopped() ? Status::Cancelled() : Status::Ok();
   }
 
@@ -802,16 +855,18 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
           std::max(options.coarse_loss_scale, options.loss_scale)),
       ceres::TAKE_OWNERSHIP);
   for (const PairConstraint& constraint : constraints) {
-    if (constraint.camera_id1 == constraint.camera_id2) {
+    const colmap::camera_t group1 = group_of.at(constraint.camera_id1);
+    const colmap::camera_t group2 = group_of.at(constraint.camera_id2);
+    if (group1 == group2) {
       problem.AddResidualBlock(
           new ceres::AutoDiffCostFunction<SharedCameraFocalCost, 2, 1>(
               new SharedCameraFocalCost(constraint.coeffs)),
-          loss, &phis[constraint.camera_id1]);
+          loss, &phis[group1]);
     } else {
       problem.AddResidualBlock(
           new ceres::AutoDiffCostFunction<TwoCameraFocalCost, 2, 1, 1>(
               new TwoCameraFocalCost(constraint.coeffs)),
-          loss, &phis[constraint.camera_id1], &phis[constraint.camera_id2]);
+          loss, &phis[group1], &phis[group2]);
     }
   }
   size_t num_free_cameras = 0;
@@ -865,33 +920,33 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
 
   // Accept plausible focals; a rejected camera keeps its old focal, which is
   // also what its pairs are judged against below.
-  for (auto& [camera_id, phi] : phis) {
-    if (!camera_is_free(camera_id)) {
+  for (auto& [group, phi] : phis) {
+    if (!camera_is_free(group)) {
       continue;
     }
-    colmap::Camera& camera = reconstruction->Camera(camera_id);
-    const double new_focal = phi * reference_focals.at(camera_id);
-    const double ratio = new_focal / camera.MeanFocalLength();
+    const double old_focal = reconstruction->Camera(group).MeanFocalLength();
+    const double new_focal = phi * reference_focals.at(group);
+    const double ratio = new_focal / old_focal;
     if (!std::isfinite(ratio) || ratio < options.min_focal_ratio ||
         ratio > options.max_focal_ratio) {
       phi = 1.0;
       continue;
     }
-    VLOG(1) << "View-graph calibration: camera " << camera_id << " focal "
-            << camera.MeanFocalLength() << " -> " << new_focal << " px";
-    for (const size_t idx : camera.FocalLengthIdxs()) {
-      camera.Params(idx) = new_focal;
-    }
+    VLOG(1) << "View-graph calibration: camera " << group << " ("
+            << members.at(group).size() << " identical) focal " << old_focal
+            << " -> " << new_focal << " px";
+    SetGroupFocal(members, group, new_focal, reconstruction);
   }
 
   // Where the fundamental matrices do not determine the focal, a small
   // reconstruction does (see the header).
-  for (const colmap::camera_t camera_id : CalibrateFromSmallReconstruction(
-           options, *view_graph, initial_cameras, reconstruction, interrupt)) {
-    const auto phi = phis.find(camera_id);
+  for (const colmap::camera_t group :
+       CalibrateFromSmallReconstruction(options, *view_graph, initial_cameras,
+                                        group_of, reconstruction, interrupt)) {
+    const auto phi = phis.find(group);
     if (phi != phis.end()) {
-      phi->second = reconstruction->Camera(camera_id).MeanFocalLength() /
-                    reference_focals.at(camera_id);
+      phi->second = reconstruction->Camera(group).MeanFocalLength() /
+                    reference_focals.at(group);
     }
   }
 
@@ -913,10 +968,10 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
                             camera1.PrincipalPointY()),
             Eigen::Vector2d(camera2.PrincipalPointX(),
                             camera2.PrincipalPointY()),
-            phis.at(constraint.camera_id1) *
-                reference_focals.at(constraint.camera_id1),
-            phis.at(constraint.camera_id2) *
-                reference_focals.at(constraint.camera_id2),
+            phis.at(group_of.at(constraint.camera_id1)) *
+                reference_focals.at(group_of.at(constraint.camera_id1)),
+            phis.at(group_of.at(constraint.camera_id2)) *
+                reference_focals.at(group_of.at(constraint.camera_id2)),
             &residuals) ||
         !(residuals.norm() <= options.max_two_view_error)) {
       constraint.pair->is_valid = false;

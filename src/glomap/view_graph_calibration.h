@@ -34,6 +34,7 @@
 #include <string>
 
 #include "base/reconstruction.h"
+#include "glomap/camera_groups.h"
 #include "glomap/ceres_threads.h"
 #include "glomap/status.h"
 #include "glomap/view_graph.h"
@@ -41,6 +42,17 @@
 namespace glomap {
 
 struct ViewGraphCalibrationOptions {
+  // Calibrate cameras without a focal prior whose database entries are
+  // identical (model, image size, every parameter) as one camera: one focal
+  // for all of them, in the fundamental-matrix solve and in the small
+  // reconstruction (see IdenticalCameraGroups). COLMAP's feature extractor
+  // writes one camera per image by default, with the same start values for
+  // every image of one size without EXIF; a single image says almost nothing
+  // about its own focal (templeRing, one camera per image: calibration left
+  // all 47 focals at the 768 px guess, true 1520 px). Bundle adjustment
+  // still refines every camera on its own, so images of different focals
+  // (zoom, two phones of one resolution) end with their own.
+  bool calibrate_identical_cameras_as_one = true;
   // A camera's new focal is rejected (old one kept) if new/old is below this.
   double min_focal_ratio = 0.1;
   // ... or above this.
@@ -93,9 +105,10 @@ struct ViewGraphCalibrationOptions {
   // Pairs with fewer matches are not used (the incremental mapper's default
   // minimum).
   int multi_view_min_num_matches = 15;
-  // A camera's focal is taken from the small reconstruction only if at least
-  // this many of its images are registered in it (two views do not determine
-  // the focal); fewer selected or connected images skip the reconstruction.
+  // A camera's focal (a group's, see calibrate_identical_cameras_as_one) is
+  // taken from the small reconstruction only if at least this many of its
+  // images are registered in it (two views do not determine the focal);
+  // fewer selected or connected images skip the reconstruction.
   int multi_view_min_num_images_per_camera = 3;
   // Keypoints per image that it uses at most (those matched in the most of
   // its pairs): a few hundred determine the focal, and the incremental
@@ -124,7 +137,8 @@ struct ViewGraphCalibrationOptions {
   Status Check(const std::string& prefix = "") const;
 };
 
-// Estimates one focal length per camera WITHOUT a focal prior
+// Estimates one focal length per camera WITHOUT a focal prior (per group of
+// identical cameras with calibrate_identical_cameras_as_one)
 // (camera.HasPriorFocalLength() == false) from the fundamental matrices of
 // valid pairs with config CALIBRATED or UNCALIBRATED; the principal point is
 // kept at the camera's current one and cameras with a prior stay constant.

@@ -159,6 +159,7 @@ int main(int argc, char** argv) {
   glomap::SyntheticSceneOptions options;
   std::string output_path;
   int prior_focal_length = options.prior_focal_length ? 1 : 0;
+  int database_camera_per_image = options.database_camera_per_image ? 1 : 0;
   int weak_bridge = options.weak_bridge ? 1 : 0;
   int prior_as_gps = options.prior_as_gps ? 1 : 0;
   std::ostringstream default_gps_origin;
@@ -182,6 +183,11 @@ int main(int argc, char** argv) {
       po::value<std::string>(&options.camera_model)
           ->default_value(options.camera_model),
       "COLMAP camera model, or a comma-separated list cycled per camera.")(
+      "database_camera_per_image",
+      po::value<int>(&database_camera_per_image)
+          ->default_value(database_camera_per_image),
+      "1: the database has one camera per image (copies of its true "
+      "camera's entry), as feature_extractor writes by default.")(
       "prior_focal_length",
       po::value<int>(&prior_focal_length)->default_value(prior_focal_length),
       "1: store the true cameras with focal priors; 0: store the feature "
@@ -334,6 +340,10 @@ int main(int argc, char** argv) {
     return Fail("--prior_focal_length must be 0 or 1");
   }
   options.prior_focal_length = prior_focal_length == 1;
+  if (database_camera_per_image != 0 && database_camera_per_image != 1) {
+    return Fail("--database_camera_per_image must be 0 or 1");
+  }
+  options.database_camera_per_image = database_camera_per_image == 1;
   if (weak_bridge != 0 && weak_bridge != 1) {
     return Fail("--weak_bridge must be 0 or 1");
   }

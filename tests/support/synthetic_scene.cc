@@ -1500,14 +1500,24 @@ Status WriteSyntheticScene(const SyntheticSceneOptions& options,
   {
     colmap::Database database(database_path);
     colmap::DatabaseTransaction transaction(&database);
-    for (const colmap::Camera& camera : database_cameras) {
-      database.WriteCamera(camera, /*use_camera_id=*/true);
+    if (options.database_camera_per_image) {
+      for (size_t i = 0; i < num_images; ++i) {
+        colmap::Camera camera = database_cameras[camera_of_image[i]];
+        camera.SetCameraId(static_cast<colmap::camera_t>(i + 1));
+        database.WriteCamera(camera, /*use_camera_id=*/true);
+      }
+    } else {
+      for (const colmap::Camera& camera : database_cameras) {
+        database.WriteCamera(camera, /*use_camera_id=*/true);
+      }
     }
     for (size_t i = 0; i < num_images; ++i) {
       colmap::Image image;
       image.SetImageId(static_cast<colmap::image_t>(i + 1));
       image.SetName(ImageName(i));
-      image.SetCameraId(database_cameras[camera_of_image[i]].CameraId());
+      image.SetCameraId(options.database_camera_per_image
+                            ? static_cast<colmap::camera_t>(i + 1)
+                            : database_cameras[camera_of_image[i]].CameraId());
       // NaN (no prior) is stored as NULL.
       if (!priors.stored.empty()) image.SetTvecPrior(priors.stored[i]);
       database.WriteImage(image, /*use_image_id=*/true);

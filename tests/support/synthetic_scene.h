@@ -25,6 +25,13 @@ struct SyntheticSceneOptions {
   // camera (e.g. "PINHOLE,SIMPLE_RADIAL,OPENCV").
   std::string camera_model = "SIMPLE_RADIAL";
 
+  // Whether the database stores one camera per image (ids equal to the image
+  // ids), each a copy of its true camera's database entry, as COLMAP's
+  // feature extractor does by default: several database cameras then share
+  // one physical camera. The true cameras (num_cameras) and the ground truth
+  // are the same either way.
+  bool database_camera_per_image = false;
+
   // Whether the database stores the true camera parameters with the focal
   // prior flag set. If false it stores focal 1.2 * max(width, height), the
   // principal point at the centre and no distortion, with the flag unset, as
