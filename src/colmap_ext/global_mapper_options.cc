@@ -341,6 +341,10 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "at least this (median angle to the mean axis; 0: never) [deg]");
   b.Add("ba_refine_extra_params", &ba.refine_extra_params,
         "Refine distortion parameters");
+  b.Add("ba_intrinsics_prior_px", &ba.intrinsics_prior_px,
+        "Soft prior that pulls fx - fy and every distortion parameter beyond "
+        "k1 towards zero: one residual each, its pixel shift at the image "
+        "corner over this (0: none) [px]");
   b.Add("ba_max_normalized_reproj_error", &ba.max_normalized_reproj_error,
         "Reprojection-error filter, normalized image units (looser on the "
         "first filtering levels, by a multiplier that drops to 1)");

@@ -369,11 +369,41 @@ double MedianRotationBiasDeg(
   return angles_deg[mid];
 }
 
+// The camera a free camera is replaced by in the small reconstruction: one
+// focal and one radial coefficient (SIMPLE_RADIAL, or SIMPLE_RADIAL_FISHEYE
+// for fisheye models), starting from the camera's mean focal and principal
+// point. Fifteen images do not determine the four to eight distortion
+// parameters of OPENCV-type models, and with them free the focal runs off
+// (templeRing with one OPENCV camera: 922 px for a true 1520 px; the
+// incremental mapper then broke up); the small reconstruction is only there
+// for the focal.
+colmap::Camera FocalProxyCamera(const colmap::Camera& camera) {
+  const std::string model = camera.ModelName();
+  if (model == "SIMPLE_RADIAL" || model == "SIMPLE_RADIAL_FISHEYE") {
+    return camera;
+  }
+  const bool fisheye = model == "OPENCV_FISHEYE" || model == "FOV" ||
+                       model == "RADIAL_FISHEYE" ||
+                       model == "THIN_PRISM_FISHEYE";
+  colmap::Camera proxy;
+  proxy.SetCameraId(camera.CameraId());
+  proxy.InitializeWithName(fisheye ? "SIMPLE_RADIAL_FISHEYE" : "SIMPLE_RADIAL",
+                           camera.MeanFocalLength(), camera.Width(),
+                           camera.Height());
+  proxy.SetPrincipalPointX(camera.PrincipalPointX());
+  proxy.SetPrincipalPointY(camera.PrincipalPointY());
+  proxy.SetPriorFocalLength(camera.HasPriorFocalLength());
+  return proxy;
+}
+
 struct SmallReconstructionResult {
   // Refined focal of every calibration group without a prior (by group id)
   // that has at least multi_view_min_num_images_per_camera registered images
   // in it.
   std::map<colmap::camera_t, double> focals;
+  // The radial coefficient of those cameras whose stand-in (see
+  // FocalProxyCamera) is SIMPLE_RADIAL_FISHEYE, by group id.
+  std::map<colmap::camera_t, double> fisheye_radials;
   // MedianRotationBiasDeg of the cameras on entry.
   double rotation_bias_deg = -1;
   size_t num_registered = 0;
@@ -406,7 +436,7 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
     if (!cache.ExistsCamera(group)) {
       const auto initial = initial_cameras.find(group);
       cache.AddCamera(initial != initial_cameras.end()
-                          ? initial->second
+                          ? FocalProxyCamera(initial->second)
                           : reconstruction.Camera(group));
     }
     colmap::Image image = KeypointImage(source);
@@ -618,6 +648,9 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
               if (count >= min_num_images_per_camera &&
                   !camera.HasPriorFocalLength()) {
                 result.focals[camera_id] = camera.MeanFocalLength();
+                if (camera.ModelName() == "SIMPLE_RADIAL_FISHEYE") {
+                  result.fisheye_radials[camera_id] = camera.Params(3);
+                }
               }
             }
             result.num_registered = small.NumRegImages();
@@ -692,6 +725,22 @@ std::vector<colmap::camera_t> CalibrateFromSmallReconstruction(
               << " px; relative rotations differ by " << small.rotation_bias_deg
               << " deg in the median)";
     SetGroupFocal(members, group, focal, reconstruction);
+    // A fisheye model starts equidistant (k1 = 0): an ordinary lens is k1
+    // = 1/3 away from that at the corner (tan(theta) = theta + theta^3 / 3
+    // ...), which bends every ray the relative poses use; the stand-in's
+    // radial coefficient is that k1.
+    const auto radial = small.fisheye_radials.find(group);
+    if (radial != small.fisheye_radials.end()) {
+      for (const colmap::camera_t camera_id : members.at(group)) {
+        colmap::Camera& camera = reconstruction->Camera(camera_id);
+        const std::string model = camera.ModelName();
+        if ((model == "OPENCV_FISHEYE" || model == "RADIAL_FISHEYE" ||
+             model == "SIMPLE_RADIAL_FISHEYE") &&
+            !camera.ExtraParamsIdxs().empty()) {
+          camera.Params(camera.ExtraParamsIdxs()[0]) = radial->second;
+        }
+      }
+    }
     calibrated.push_back(group);
   }
   return calibrated;
