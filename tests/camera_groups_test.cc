@@ -49,7 +49,8 @@ TEST(CameraGroups, MergeAndSplit) {
     image.SetCameraId(camera_id);
     reconstruction.AddImage(image);
   }
-  const MergedCameras merged = MergeIdenticalCameras(&reconstruction);
+  const MergedCameras merged = MergeIdenticalCameras(
+      IdenticalCameraGroups(reconstruction), &reconstruction);
   EXPECT_EQ(merged.num_groups, 1);
   EXPECT_EQ(merged.num_cameras, 3);
   for (const colmap::image_t image_id : {11, 12, 13}) {

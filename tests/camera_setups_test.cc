@@ -13,6 +13,7 @@
 #include "base/database.h"
 #include "colmap_ext/model_evaluation.h"
 #include "glomap/global_mapper.h"
+#include "tests/support/synthetic_scene.h"
 #include "tests/support/test_paths.h"
 
 namespace glomap {
@@ -155,6 +156,107 @@ INSTANTIATE_TEST_SUITE_P(
       }
       return name;
     });
+
+// Synthetic scenes (tests/support/synthetic_scene.h): the two cases a
+// project with one camera per image and identical start values can be.
+
+struct SyntheticRun {
+  colmap::Reconstruction truth;
+  colmap::Reconstruction model;
+  ModelEvaluation evaluation;
+};
+
+void RunSynthetic(const SyntheticSceneOptions& scene, const std::string& name,
+                  SyntheticRun* run) {
+  const std::string dir = testing::CreateTestDir("camera_setups_" + name);
+  const std::string database_path = dir + "/database.db";
+  ASSERT_TRUE(WriteSyntheticScene(scene, database_path, &run->truth).ok());
+  GlobalMapperOptions options;
+  colmap::Reconstruction work;
+  std::vector<colmap::Reconstruction> models;
+  const Status status =
+      GlobalMapper(options).Run(database_path, &work, &models);
+  ASSERT_TRUE(status.ok()) << status.message();
+  ASSERT_GE(models.size(), 1u);
+  run->model = std::move(models[0]);
+  ASSERT_TRUE(EvaluateModel(run->model, run->truth, ModelEvaluationOptions(),
+                            &run->evaluation)
+                  .ok());
+}
+
+// Largest relative focal error of the registered images' cameras against
+// the true camera of each image.
+double MaxRelativeFocalError(const SyntheticRun& run) {
+  double max_error = 0;
+  for (const colmap::image_t image_id : run.model.RegImageIds()) {
+    const double focal = run.model.Camera(run.model.Image(image_id).CameraId())
+                             .MeanFocalLength();
+    const double truth = run.truth.Camera(run.truth.Image(image_id).CameraId())
+                             .MeanFocalLength();
+    max_error = std::max(max_error, std::abs(focal / truth - 1));
+  }
+  return max_error;
+}
+
+class CameraSetupsSynthetic : public ::testing::TestWithParam<int> {};
+
+// One physical camera written as one camera per image (feature_extractor's
+// default without EXIF): the model is that of the same scene written with
+// one shared camera, and every image's camera has the one true focal.
+TEST_P(CameraSetupsSynthetic, OnePhysicalCameraWrittenPerImage) {
+  SyntheticSceneOptions scene;
+  scene.num_images = 40;
+  scene.prior_focal_length = false;
+  scene.random_seed = GetParam();
+  SyntheticRun shared;
+  RunSynthetic(scene, "one_shared_" + std::to_string(GetParam()), &shared);
+  scene.database_camera_per_image = true;
+  SyntheticRun per_image;
+  RunSynthetic(scene, "one_per_image_" + std::to_string(GetParam()),
+               &per_image);
+  std::cout << "one physical camera: AUC@3 shared "
+            << shared.evaluation.pose_aucs[1] << ", per image "
+            << per_image.evaluation.pose_aucs[1] << ", largest focal error "
+            << MaxRelativeFocalError(per_image) << std::endl;
+  EXPECT_EQ(per_image.evaluation.num_registered, scene.num_images);
+  EXPECT_EQ(per_image.evaluation.num_cameras_beyond, 0);
+  EXPECT_GE(per_image.evaluation.pose_aucs[1],
+            shared.evaluation.pose_aucs[1] - 1);
+  EXPECT_LT(MaxRelativeFocalError(per_image), 0.01);
+  EXPECT_EQ(per_image.model.NumCameras(), per_image.model.NumImages());
+  for (const auto& [camera_id, camera] : per_image.model.Cameras()) {
+    EXPECT_EQ(camera.Params(), per_image.model.Camera(1).Params());
+  }
+}
+
+// Every image its own focal (a zoom lens: +-10%), all written with the same
+// start values: the images are first calibrated as one camera, and bundle
+// adjustment finds that they fit clearly better apart and gives each its
+// own focal. (Kept merged, a 60-image ring broke apart: AUC@3 0.5, 30 of
+// 60 cameras beyond 5% of the scene; with the split 76.4, none.)
+TEST_P(CameraSetupsSynthetic, EveryImageItsOwnFocal) {
+  SyntheticSceneOptions scene;
+  scene.num_images = 40;
+  scene.num_cameras = 40;
+  scene.prior_focal_length = false;
+  scene.random_seed = GetParam();
+  SyntheticRun zoom;
+  RunSynthetic(scene, "zoom_" + std::to_string(GetParam()), &zoom);
+  std::cout << "each image its own focal: AUC@3 "
+            << zoom.evaluation.pose_aucs[1] << ", largest focal error "
+            << MaxRelativeFocalError(zoom) << std::endl;
+  // Seed 1 registers 39 of 40: pose verification after global positioning,
+  // still with one focal for all, leaves one image out, and nothing
+  // registers it again after the split (not solved yet). Without merging
+  // the same scenes give AUC@3 12.0 (seed 1) and 10.1 (seed 2) with 12 and
+  // 18 cameras beyond 5%; with the split 72.7 and 76.8, none beyond.
+  EXPECT_GE(zoom.evaluation.num_registered, scene.num_images - 1);
+  EXPECT_EQ(zoom.evaluation.num_cameras_beyond, 0);
+  EXPECT_LT(MaxRelativeFocalError(zoom), 0.03);
+  EXPECT_GE(zoom.evaluation.pose_aucs[1], 50);
+}
+
+INSTANTIATE_TEST_SUITE_P(Seeds, CameraSetupsSynthetic, ::testing::Values(0, 1));
 
 }  // namespace
 }  // namespace glomap

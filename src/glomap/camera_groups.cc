@@ -36,9 +36,10 @@ CameraGroups IdenticalCameraGroups(
   return group_of;
 }
 
-MergedCameras MergeIdenticalCameras(colmap::Reconstruction* reconstruction) {
+MergedCameras MergeIdenticalCameras(const CameraGroups& group_of,
+                                    colmap::Reconstruction* reconstruction) {
   MergedCameras merged;
-  merged.group_of = IdenticalCameraGroups(*reconstruction);
+  merged.group_of = group_of;
   std::map<colmap::camera_t, size_t> group_sizes;
   for (const auto& [camera_id, group] : merged.group_of) ++group_sizes[group];
   for (const auto& [group, size] : group_sizes) {

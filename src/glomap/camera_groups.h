@@ -41,10 +41,12 @@ struct MergedCameras {
   size_t num_cameras = 0;
 };
 
-// Points every image whose camera belongs to a group of several identical
-// cameras to the group's camera (the smallest id). The other cameras of the
-// group stay in the reconstruction, unused, until SplitMergedCameras.
-MergedCameras MergeIdenticalCameras(colmap::Reconstruction* reconstruction);
+// Points every image whose camera belongs to a group of several cameras in
+// `group_of` (IdenticalCameraGroups, or a part of it) to the group's camera.
+// The other cameras of the group stay in the reconstruction, unused, until
+// SplitMergedCameras.
+MergedCameras MergeIdenticalCameras(const CameraGroups& group_of,
+                                    colmap::Reconstruction* reconstruction);
 
 // Undoes MergeIdenticalCameras on `model` (the working reconstruction or a
 // model extracted from it): every image gets its original camera back
