@@ -22,8 +22,9 @@ the one of the image's camera in the input. f is
   --focal exif    the ground-truth focal (mean of fx, fy of the image's
                   camera in --gt_path, matched by image name) times
                   (1 + e), e uniform in [-exif_error, exif_error] drawn once
-                  per ground-truth camera from --seed (one physical camera
-                  writes one EXIF focal), prior_focal_length = 1
+                  per distinct ground-truth focal from --seed (one physical
+                  camera writes one EXIF focal, and ground truths often
+                  repeat one camera per image), prior_focal_length = 1
 
 Example (one SIMPLE_RADIAL camera per image, no prior: the most common
 project):
@@ -171,11 +172,11 @@ def rewrite(args):
                 if name not in gt_focals:
                     raise RewriteError(
                         f"image {name} is not in the ground truth")
-                gt_camera = gt_camera_ids[name]
-                if gt_camera not in exif_factor_by_gt_camera:
-                    exif_factor_by_gt_camera[gt_camera] = 1 + rng.uniform(
+                physical = round(gt_focals[name], 6)
+                if physical not in exif_factor_by_gt_camera:
+                    exif_factor_by_gt_camera[physical] = 1 + rng.uniform(
                         -args.exif_error, args.exif_error)
-                return gt_focals[name] * exif_factor_by_gt_camera[gt_camera]
+                return gt_focals[name] * exif_factor_by_gt_camera[physical]
 
             new_cameras = []  # (camera_id, width, height, focal)
             image_camera = []  # (camera_id, image_id)

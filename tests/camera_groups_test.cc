@@ -21,14 +21,15 @@ TEST(CameraGroups, IdenticalCameraGroups) {
   };
   add(7, "SIMPLE_RADIAL", 640, 768, false);
   add(3, "SIMPLE_RADIAL", 640, 768, false);
-  add(5, "SIMPLE_RADIAL", 640, 768, true);   // EXIF focal
+  add(5, "SIMPLE_RADIAL", 640, 768, true);   // EXIF focal: not with 3, 7
+  add(10, "SIMPLE_RADIAL", 640, 768, true);  // same EXIF focal: with 5
   add(4, "SIMPLE_RADIAL", 800, 960, false);  // other size
   add(9, "SIMPLE_RADIAL", 800, 960, false);
   add(6, "OPENCV", 640, 768, false);         // other model
   add(8, "SIMPLE_RADIAL", 640, 700, false);  // other focal
   const CameraGroups groups = IdenticalCameraGroups(reconstruction);
   const CameraGroups expected = {{3, 3}, {4, 4}, {5, 5}, {6, 6},
-                                 {7, 3}, {8, 8}, {9, 4}};
+                                 {7, 3}, {8, 8}, {9, 4}, {10, 5}};
   EXPECT_EQ(groups, expected);
 }
 
@@ -41,7 +42,7 @@ TEST(CameraGroups, MergeAndSplit) {
     colmap::Camera camera;
     camera.SetCameraId(camera_id);
     camera.InitializeWithName("SIMPLE_RADIAL", 768, 640, 480);
-    camera.SetPriorFocalLength(camera_id == 4);  // EXIF: never merged
+    camera.SetPriorFocalLength(camera_id == 4);  // EXIF: not with 1-3
     reconstruction.AddCamera(camera);
     colmap::Image image;
     image.SetImageId(10 + camera_id);

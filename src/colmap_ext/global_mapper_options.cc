@@ -59,10 +59,11 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
         "Camera clusters with fewer images are not written (at least 2: "
         "a two-image project needs 2)");
   b.Add("merge_identical_cameras", &o->merge_identical_cameras,
-        "Cameras without a focal prior with identical model, size and "
-        "parameters (one camera per image, as feature_extractor writes them "
-        "by default) are calibrated and refined as one camera; every image "
-        "keeps its own camera in the output, with those intrinsics");
+        "Cameras with identical focal prior flag, model, size and parameters "
+        "(one camera per image, as feature_extractor writes them by default) "
+        "are calibrated and refined as one camera, unless bundle adjustment "
+        "finds that they fit clearly better apart; every image keeps its own "
+        "camera in the output");
   b.Add("skip_view_graph_calibration", &o->skip_view_graph_calibration,
         "Keep the database's focal lengths");
   b.Add("skip_bundle_adjustment", &o->skip_bundle_adjustment,

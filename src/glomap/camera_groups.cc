@@ -7,14 +7,15 @@
 namespace glomap {
 namespace {
 
-// Key of a camera without a focal prior: model, size and every parameter,
+// Key of a camera: focal prior flag, model, size and every parameter,
 // compared exactly (the feature extractor writes the same values for every
-// image of one size, and nothing else makes two cameras identical by chance).
-using CameraKey = std::tuple<int, size_t, size_t, std::vector<double>>;
+// image of one size and EXIF focal, and nothing else makes two cameras
+// identical by chance).
+using CameraKey = std::tuple<bool, int, size_t, size_t, std::vector<double>>;
 
 CameraKey KeyOf(const colmap::Camera& camera) {
-  return CameraKey(camera.ModelId(), camera.Width(), camera.Height(),
-                   camera.Params());
+  return CameraKey(camera.HasPriorFocalLength(), camera.ModelId(),
+                   camera.Width(), camera.Height(), camera.Params());
 }
 
 }  // namespace
@@ -23,15 +24,12 @@ CameraGroups IdenticalCameraGroups(
     const colmap::Reconstruction& reconstruction) {
   std::map<CameraKey, colmap::camera_t> smallest_id;
   for (const auto& [camera_id, camera] : reconstruction.Cameras()) {
-    if (camera.HasPriorFocalLength()) continue;
     const auto [it, inserted] = smallest_id.emplace(KeyOf(camera), camera_id);
     if (!inserted) it->second = std::min(it->second, camera_id);
   }
   CameraGroups group_of;
   for (const auto& [camera_id, camera] : reconstruction.Cameras()) {
-    group_of.emplace(camera_id, camera.HasPriorFocalLength()
-                                    ? camera_id
-                                    : smallest_id.at(KeyOf(camera)));
+    group_of.emplace(camera_id, smallest_id.at(KeyOf(camera)));
   }
   return group_of;
 }

@@ -12,8 +12,9 @@
 // without a focal prior (MergeIdenticalCameras) and gives every image its
 // own camera back at the end (SplitMergedCameras), each with the group's
 // refined intrinsics: the written model has the database's camera ids.
-// Cameras with a focal prior (EXIF), or whose start values differ, are
-// never merged.
+// Cameras with an EXIF focal (prior_focal_length) are merged likewise when
+// identical (one camera writes one EXIF focal), never with cameras without
+// one; cameras whose start values differ are never merged.
 #pragma once
 
 #include <map>
@@ -24,9 +25,9 @@
 namespace glomap {
 
 // Calibration groups: camera id -> group id (the smallest camera id of the
-// group), for every camera of a reconstruction. Cameras without a focal
-// prior whose model, image size and every parameter are identical form one
-// group; every other camera is a group of its own.
+// group), for every camera of a reconstruction. Cameras whose focal prior
+// flag, model, image size and every parameter are identical form one group;
+// every other camera is a group of its own.
 using CameraGroups = std::map<colmap::camera_t, colmap::camera_t>;
 CameraGroups IdenticalCameraGroups(
     const colmap::Reconstruction& reconstruction);

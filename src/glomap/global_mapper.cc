@@ -542,8 +542,7 @@ Status GlobalMapper::Run(const std::string& database_path,
     merged_cameras = MergeIdenticalCameras(IdenticalCameraGroups(*work), work);
     if (merged_cameras.num_groups > 0) {
       LOG(INFO) << merged_cameras.num_cameras
-                << " cameras without a focal prior are identical in the "
-                   "database ("
+                << " cameras are identical in the database ("
                 << merged_cameras.num_groups
                 << " group(s)): each group is calibrated and refined as one "
                    "camera, and every image keeps its own camera in the "

@@ -65,7 +65,7 @@ struct GlobalMapperOptions {
   // them (issue 14); on dino-363 the random start wins the comparison.
   bool init_positions_from_pairs = true;
 
-  // Cameras without a focal prior that are identical in the database (model,
+  // Cameras that are identical in the database (focal prior flag, model,
   // size, every parameter: one camera per image, as feature_extractor writes
   // them by default) are one camera from the database to the output, where
   // every image gets its own camera back with the shared intrinsics (see
