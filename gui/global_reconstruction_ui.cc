@@ -1,7 +1,10 @@
 #include "gui/global_reconstruction_ui.h"
 
+#include <QStringList>
 #include <algorithm>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "colmap_ext/global_mapper_options.h"
 #include "colmap_ext/terminate_handler.h"
@@ -317,6 +320,7 @@ void GlobalReconstructionUi::Run() {
   // label shows the same clock.
   window_->timer_.Restart();
   progress_bar_->setValue(0);
+  progress_label_->setToolTip(QString());
   progress_label_->show();
   progress_bar_->show();
   pause_button_->setText(tr("Pause"));
@@ -467,11 +471,24 @@ void GlobalReconstructionUi::OnFinished() {
     for (size_t i = 0; i < models.Size(); ++i) {
       num_images += models.Get(i).NumRegImages();
     }
-    progress_label_->setText(
+    QString text =
         QString("Global reconstruction: %1 model(s), %2 images \u2014 %3")
             .arg(models.Size())
             .arg(num_images)
-            .arg(elapsed));
+            .arg(elapsed);
+    // What the user should know about the model (focal lengths the data
+    // did not fix): named on the label, in full in its tooltip and the log.
+    const std::vector<std::string>& warnings = controller_->Summary().warnings;
+    QStringList details;
+    for (const std::string& warning : warnings) {
+      details << QString::fromStdString(warning);
+    }
+    if (!warnings.empty()) {
+      text += QString(" \u2014 %1 warning(s), see the tooltip or the log")
+                  .arg(warnings.size());
+    }
+    progress_label_->setText(text);
+    progress_label_->setToolTip(details.join("\n\n"));
   }
   if (!error.empty()) {
     progress_label_->setText(tr("Global reconstruction failed"));

@@ -335,17 +335,22 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("ba_refine_focal_length", &ba.refine_focal_length,
         "Refine focal lengths");
   b.Add("ba_refine_principal_point", &ba.refine_principal_point,
-        "Refine principal points");
+        "Refine principal points (where observable, see the next option)");
   b.Add("ba_min_view_spread_deg_for_principal_point",
         &ba.min_view_spread_deg_for_principal_point,
-        "Also refine principal points when the viewing directions spread by "
-        "at least this (median angle to the mean axis; 0: never) [deg]");
+        "Principal points are refined only when the viewing directions spread "
+        "by at least this (median angle to the mean axis; 0: whatever the "
+        "spread) [deg]");
   b.Add("ba_refine_extra_params", &ba.refine_extra_params,
         "Refine distortion parameters");
   b.Add("ba_intrinsics_prior_px", &ba.intrinsics_prior_px,
         "Soft prior that pulls fx - fy and every distortion parameter beyond "
         "k1 towards zero: one residual each, its pixel shift at the image "
         "corner over this (0: none) [px]");
+  b.Add("ba_prior_focal_length_std", &ba.prior_focal_length_std,
+        "Soft prior that holds the focal length of a camera with a known "
+        "focal (prior_focal_length: EXIF, or given) near it: its standard "
+        "deviation as a fraction of that focal (0: none, the focal is free)");
   b.Add("ba_max_normalized_reproj_error", &ba.max_normalized_reproj_error,
         "Reprojection-error filter, normalized image units (looser on the "
         "first filtering levels, by a multiplier that drops to 1)");

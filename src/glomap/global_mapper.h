@@ -14,6 +14,7 @@
 #include "glomap/camera_groups.h"
 #include "glomap/ceres_threads.h"
 #include "glomap/database_reader.h"
+#include "glomap/focal_check.h"
 #include "glomap/global_positioning.h"
 #include "glomap/pose_verification.h"
 #include "glomap/position_initialization.h"
@@ -43,12 +44,22 @@ struct GlobalMapperOptions {
   // Pose verification after global positioning (poses still coarse: a
   // looser inlier threshold) and again before the output.
   PoseVerificationOptions pose_verification;
-  GlobalBundleAdjustmentOptions bundle_adjustment;
+  // The mapper refines principal points by default, but only where the
+  // viewing directions make them observable (see
+  // min_view_spread_deg_for_principal_point); refine_principal_point = false
+  // keeps them as the database has them.
+  GlobalBundleAdjustmentOptions bundle_adjustment = [] {
+    GlobalBundleAdjustmentOptions ba_options;
+    ba_options.refine_principal_point = true;
+    return ba_options;
+  }();
   RetriangulationOptions retriangulation;
   CameraClusteringOptions clustering;
   // Camera position priors (GPS or metric) in global positioning and bundle
   // adjustment; off by default.
   PositionPriorOptions position_priors;
+  // When the mapper warns that focal lengths were not determined.
+  FocalCheckOptions focal_check;
 
   // Stage switches (for experiments; every stage runs by default).
   bool skip_view_graph_calibration = false;
@@ -109,6 +120,9 @@ struct GlobalMapperSummary {
   // positioning and before the output together).
   size_t num_replaced_images = 0;
   size_t num_deregistered_images = 0;
+  // What the user should know about the model (each also logged as a
+  // warning): focal lengths the data did not fix (focal_check.h).
+  std::vector<std::string> warnings;
 };
 
 // Hooks for a caller that shows progress (the GUI) or can cancel.

@@ -203,6 +203,31 @@ int main(int argc, char** argv) {
       po::value<double>(&options.focal_length_px)
           ->default_value(options.focal_length_px),
       "True focal length in pixels.")(
+      "image_sizes",
+      po::value<std::string>(&options.image_sizes)
+          ->default_value(options.image_sizes),
+      "Mixed cameras: WIDTHxHEIGHT sizes, comma-separated, cycled per camera "
+      "(focal scaled with the width); empty: image_width_px x "
+      "image_height_px.")(
+      "principal_point_offset",
+      po::value<double>(&options.principal_point_offset)
+          ->default_value(options.principal_point_offset),
+      "True principal points off the centre by up to this fraction of the "
+      "image size (per camera and axis).")(
+      "distortion_scale",
+      po::value<double>(&options.distortion_scale)
+          ->default_value(options.distortion_scale),
+      "Scale of the true distortion (1: ordinary lenses, 10: strong).")(
+      "num_cameras_with_prior",
+      po::value<int>(&options.num_cameras_with_prior)
+          ->default_value(options.num_cameras_with_prior),
+      "With prior_focal_length 1, only the first this many cameras have a "
+      "focal prior (-1: all).")(
+      "prior_focal_length_error",
+      po::value<double>(&options.prior_focal_length_error)
+          ->default_value(options.prior_focal_length_error),
+      "Stored focal priors off the truth by a factor in [1 - this, 1 + "
+      "this], per camera.")(
       "num_points3D",
       po::value<int>(&options.num_points3D)
           ->default_value(options.num_points3D),

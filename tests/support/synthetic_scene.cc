@@ -54,6 +54,9 @@ enum RandomStream : uint32_t {
   // Which images get outlier or no priors; each image's prior noise.
   kPriorSelectionStream,
   kPriorNoiseStream,
+  // Each camera's principal-point offset and focal-prior error.
+  kPrincipalPointStream,
+  kFocalPriorErrorStream,
 };
 
 std::mt19937 MakeRng(int seed, RandomStream stream, uint64_t index = 0) {
@@ -79,6 +82,30 @@ std::vector<std::string> SplitModelNames(const std::string& models) {
   return names;
 }
 
+// Parses image_sizes ("1024x768,640x480") into (width, height) pairs; an
+// empty string gives the one size image_width_px x image_height_px. Returns
+// false on a malformed entry.
+bool ParseImageSizes(const SyntheticSceneOptions& options,
+                     std::vector<std::pair<int, int>>* sizes) {
+  sizes->clear();
+  if (options.image_sizes.empty()) {
+    sizes->emplace_back(options.image_width_px, options.image_height_px);
+    return true;
+  }
+  for (const std::string& entry : SplitModelNames(options.image_sizes)) {
+    int width = 0;
+    int height = 0;
+    char separator = 0;
+    std::istringstream stream(entry);
+    if (!(stream >> width >> separator >> height) || separator != 'x' ||
+        !stream.eof()) {
+      return false;
+    }
+    sizes->emplace_back(width, height);
+  }
+  return !sizes->empty();
+}
+
 std::string OptionsError(const SyntheticSceneOptions& options) {
   if (options.num_images < 10 || options.num_images > 10000) {
     return "num_images must be in [10, 10000]";
@@ -96,7 +123,30 @@ std::string OptionsError(const SyntheticSceneOptions& options) {
   if (options.image_width_px < 64 || options.image_height_px < 64) {
     return "image_width_px and image_height_px must be at least 64";
   }
+  std::vector<std::pair<int, int>> sizes;
+  if (!ParseImageSizes(options, &sizes)) {
+    return "image_sizes must be comma-separated WIDTHxHEIGHT entries";
+  }
+  for (const auto& [width, height] : sizes) {
+    if (width < 64 || height < 64) {
+      return "every size in image_sizes must be at least 64x64";
+    }
+  }
   if (!(options.focal_length_px > 0)) return "focal_length_px must be > 0";
+  if (!(options.principal_point_offset >= 0 &&
+        options.principal_point_offset <= 0.2)) {
+    return "principal_point_offset must be in [0, 0.2]";
+  }
+  if (!(options.distortion_scale >= 0 && options.distortion_scale <= 20)) {
+    return "distortion_scale must be in [0, 20]";
+  }
+  if (options.num_cameras_with_prior < -1) {
+    return "num_cameras_with_prior must be -1 or >= 0";
+  }
+  if (!(options.prior_focal_length_error >= 0 &&
+        options.prior_focal_length_error < 0.5)) {
+    return "prior_focal_length_error must be in [0, 0.5)";
+  }
   if (options.num_points3D < 0) return "num_points3D must be >= 0";
   if (options.max_keypoints_per_image < 32) {
     return "max_keypoints_per_image must be at least 32";
@@ -423,21 +473,36 @@ Layout MakeGridLayout(int num_images, std::mt19937& rng) {
 }
 
 // True cameras: the focal length varies by +-10% between cameras; the
-// distortion is small, as for ordinary lenses.
+// distortion is small, as for ordinary lenses (times distortion_scale).
 std::vector<colmap::Camera> MakeTrueCameras(
     const SyntheticSceneOptions& options) {
   const std::vector<std::string> models = SplitModelNames(options.camera_model);
+  std::vector<std::pair<int, int>> sizes;
+  ParseImageSizes(options, &sizes);
   std::mt19937 rng = MakeRng(options.random_seed, kCameraStream);
+  std::mt19937 principal_point_rng =
+      MakeRng(options.random_seed, kPrincipalPointStream);
   std::vector<colmap::Camera> cameras;
   for (int c = 0; c < options.num_cameras; ++c) {
-    const double focal =
-        options.num_cameras > 1
-            ? options.focal_length_px * (1 + Uniform(rng, -0.1, 0.1))
-            : options.focal_length_px;
+    const auto [width, height] = sizes[c % sizes.size()];
+    const double width_scale =
+        static_cast<double>(width) / options.image_width_px;
+    const double focal = width_scale * (options.num_cameras > 1
+                                            ? options.focal_length_px *
+                                                  (1 + Uniform(rng, -0.1, 0.1))
+                                            : options.focal_length_px);
     colmap::Camera camera;
     camera.SetCameraId(static_cast<colmap::camera_t>(c + 1));
-    camera.InitializeWithName(models[c % models.size()], focal,
-                              options.image_width_px, options.image_height_px);
+    camera.InitializeWithName(models[c % models.size()], focal, width, height);
+    if (options.principal_point_offset > 0) {
+      const double max_offset = options.principal_point_offset;
+      camera.SetPrincipalPointX(
+          width *
+          (0.5 + Uniform(principal_point_rng, -max_offset, max_offset)));
+      camera.SetPrincipalPointY(
+          height *
+          (0.5 + Uniform(principal_point_rng, -max_offset, max_offset)));
+    }
     const std::vector<size_t>& extra_idxs = camera.ExtraParamsIdxs();
     const bool is_fov = camera.ModelName() == "FOV";
     for (size_t k = 0; k < extra_idxs.size(); ++k) {
@@ -451,7 +516,7 @@ std::vector<colmap::Camera> MakeTrueCameras(
       } else {
         value = Uniform(rng, -0.0005, 0.0005);  // tangential, higher orders
       }
-      camera.Params(extra_idxs[k]) = value;
+      camera.Params(extra_idxs[k]) = options.distortion_scale * value;
     }
     camera.SetPriorFocalLength(true);
     cameras.push_back(std::move(camera));
@@ -463,15 +528,27 @@ std::vector<colmap::Camera> MakeTrueCameras(
 std::vector<colmap::Camera> MakeDatabaseCameras(
     const SyntheticSceneOptions& options,
     const std::vector<colmap::Camera>& true_cameras) {
+  std::mt19937 rng = MakeRng(options.random_seed, kFocalPriorErrorStream);
   std::vector<colmap::Camera> cameras;
-  for (const colmap::Camera& true_camera : true_cameras) {
+  for (size_t c = 0; c < true_cameras.size(); ++c) {
+    const colmap::Camera& true_camera = true_cameras[c];
     colmap::Camera camera = true_camera;
-    if (!options.prior_focal_length) {
+    const bool has_prior =
+        options.prior_focal_length &&
+        (options.num_cameras_with_prior < 0 ||
+         static_cast<int>(c) < options.num_cameras_with_prior);
+    if (!has_prior) {
       camera.InitializeWithId(
           true_camera.ModelId(),
-          1.2 * std::max(options.image_width_px, options.image_height_px),
+          1.2 * std::max(true_camera.Width(), true_camera.Height()),
           true_camera.Width(), true_camera.Height());
       camera.SetPriorFocalLength(false);
+    } else if (options.prior_focal_length_error > 0) {
+      const double factor = 1 + Uniform(rng, -options.prior_focal_length_error,
+                                        options.prior_focal_length_error);
+      for (const size_t idx : camera.FocalLengthIdxs()) {
+        camera.Params(idx) *= factor;
+      }
     }
     cameras.push_back(std::move(camera));
   }

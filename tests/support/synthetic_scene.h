@@ -38,13 +38,39 @@ struct SyntheticSceneOptions {
   // COLMAP's feature extractor does without EXIF data.
   bool prior_focal_length = true;
 
-  // Image size in pixels (all cameras).
+  // Image size in pixels (all cameras, unless image_sizes is set).
   int image_width_px = 1024;
   int image_height_px = 768;
 
-  // True focal length in pixels; varied by up to +-10% per camera when
-  // num_cameras > 1.
+  // Mixed cameras: image sizes as "WIDTHxHEIGHT", comma-separated, cycled
+  // per camera like camera_model (e.g. "1024x768,1600x1200,640x480"); each
+  // camera's focal length scales with its width (so that every camera sees
+  // about the same field of view). Empty: image_width_px x image_height_px.
+  std::string image_sizes;
+
+  // True focal length in pixels (for a camera image_width_px wide); varied
+  // by up to +-10% per camera when num_cameras > 1.
   double focal_length_px = 900;
+
+  // True principal points lie off the image centre by up to this fraction
+  // of the image width and height (uniform per camera and axis; 0: at the
+  // centre). Real cameras have them 1-3% off.
+  double principal_point_offset = 0;
+
+  // Scale of the true distortion coefficients: 1 draws the small distortion
+  // of ordinary lenses (k1 in [-0.02, 0.01], k2 in +-0.005, tangential and
+  // higher orders in +-0.0005); 10 a strong wide-angle or fisheye lens.
+  double distortion_scale = 1;
+
+  // With prior_focal_length, only the first this many true cameras (-1:
+  // all) are stored with their focal prior; the others as the feature
+  // extractor stores a camera without EXIF (mixed cameras, some with EXIF).
+  int num_cameras_with_prior = -1;
+
+  // Stored focal priors are off the truth by a factor in [1 - this, 1 +
+  // this], drawn per true camera (EXIF focal lengths are rarely exact; 0:
+  // exact). The principal point and distortion are stored as the truth.
+  double prior_focal_length_error = 0;
 
   // Number of 3D points; 0 picks the density that makes each image see about
   // 600 points.
