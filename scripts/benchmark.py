@@ -42,6 +42,16 @@ stock mapper of the same benchmark run instead: every image it registers is
 registered by ours, AUC@3 at most 1 point below it, at most half its time
 (the README's stock figures stand in when the stock mapper was skipped).
 
+Camera setups (--camera_setup): the databases as they are ("database"), or
+rewritten by scripts/rewrite_cameras.py into <output_dir>/camera_setups/ the
+way a user's project often has them: one shared camera ("shared"), one camera
+per image without a focal prior ("per_image", feature_extractor's default
+without EXIF), or one per image with an EXIF-like focal --exif_error off the
+ground truth ("per_image_exif"), each of --camera_model. Every mapper runs on
+the same rewritten copy; the main table's "cameras" column names the setup,
+and the bars are judged against the stock mapper of the same run (the
+READMEs' reference figures are for the databases as they are).
+
 Writes to --output_dir: results.json, results.md (Markdown tables),
 runtime_per_stage.png and auc_per_dataset.png (gnuplot). With --readme, also
 replaces the benchmark section of the README and copies the AUC plot next to
@@ -544,6 +554,8 @@ def provenance_lines(meta):
     lines.append("Machine: %s, %s cores, %s GiB memory, %s; %s." % (
         machine["cpu"], machine["cores"],
         fmt(machine.get("memory_gib"), 1), machine["kernel"], meta["date"]))
+    if meta.get("camera_setup"):
+        lines.append("Cameras: %s." % meta["camera_setup"])
     repeats = meta.get("repeats") or {}
     if repeats:
         names = {"global": "ours", "incremental": "stock",
@@ -579,6 +591,52 @@ def find_datasets(paths):
                 if os.path.isfile(os.path.join(sub, "database.db")):
                     datasets.append(sub)
     return datasets
+
+
+CAMERA_SETUPS = ("database", "shared", "per_image", "per_image_exif")
+
+
+def camera_setup_label(setup, model, exif_error):
+    """The main table's "cameras" cell of a setup."""
+    if setup == "database":
+        return "as in the database"
+    where = "shared" if setup == "shared" else "per image"
+    prior = ("EXIF %g%% off" % (100 * exif_error) if setup == "per_image_exif"
+             else "no prior")
+    return "%s %s, %s" % (where, model, prior)
+
+
+def camera_setup_dataset(args, dataset):
+    """A dataset folder whose database.db is `dataset`'s rewritten to
+    --camera_setup (scripts/rewrite_cameras.py; the input is only copied),
+    with gt/ and images/ linked; `dataset` itself for "database"."""
+    if args.camera_setup == "database":
+        return dataset
+    name = os.path.basename(dataset)
+    slug = "%s_%s" % (args.camera_setup, args.camera_model)
+    target = os.path.join(args.output_dir, "camera_setups", slug, name)
+    if os.path.isdir(target):
+        shutil.rmtree(target)
+    os.makedirs(target)
+    command = [sys.executable,
+               os.path.join(REPO_DIR, "scripts", "rewrite_cameras.py"),
+               "--database_path", os.path.join(dataset, "database.db"),
+               "--output_path", os.path.join(target, "database.db"),
+               "--camera_mode",
+               "shared" if args.camera_setup == "shared" else "per_image",
+               "--camera_model", args.camera_model]
+    if args.camera_setup == "per_image_exif":
+        command += ["--focal", "exif", "--gt_path",
+                    os.path.join(dataset, "gt"),
+                    "--exif_error", str(args.exif_error)]
+    code, text = capture(command)
+    if code != 0:
+        sys.exit("error: rewriting the cameras of %s failed:\n%s" % (
+            dataset, text))
+    for sub in ("gt", "images"):
+        if os.path.isdir(os.path.join(dataset, sub)):
+            os.symlink(os.path.join(dataset, sub), os.path.join(target, sub))
+    return target
 
 
 def synthetic_options(num_images):
@@ -735,7 +793,11 @@ def run_one(args, dataset, mapper, seed, index, total, repeat=0, repeats=1):
     log_path = os.path.join(work, "log.txt")
 
     record = {"dataset": name, "mapper": mapper, "command": command_name,
-              "binary": binary, "status": "ok", "repeat": repeat}
+              "binary": binary, "status": "ok", "repeat": repeat,
+              "camera_setup": camera_setup_label(
+                  getattr(args, "camera_setup", "database"),
+                  getattr(args, "camera_model", ""),
+                  getattr(args, "exif_error", 0))}
     if seed is not None:
         record["seed"] = seed
     record["db_images"] = count_db_images(database)
@@ -882,6 +944,7 @@ def summarize_runs(runs):
     ok_runs = [r for r in runs if r["status"] == "ok"]
     pool = ok_runs or runs
     summary = {"dataset": runs[0]["dataset"], "mapper": runs[0]["mapper"],
+               "camera_setup": runs[0].get("camera_setup"),
                "command": runs[0].get("command"), "runs": runs,
                "status": "ok" if ok_runs else runs[0]["status"]}
     seeds = {r.get("seed") for r in runs}
@@ -973,7 +1036,7 @@ def main_table_header(records):
     """The main table's two header lines; they say how several runs are
     combined."""
     aucs = " | ".join("AUC@%s° (median)" % t for t in AUC_THRESHOLDS)
-    header = ("| dataset | mapper | wall time: median (min–max) "
+    header = ("| dataset | cameras | mapper | wall time: median (min–max) "
               "| peak memory (max) | registered (min–max) | %s "
               "| mean position error (median) | %s (min–max) "
               "| re-placed/left out (min–max) | mean reproj. error (median) "
@@ -1029,7 +1092,7 @@ def markdown_tables(records, meta):
                 fmt_span([x.get("left_out_images") for x in ok_runs]))
         else:
             moved = "–"
-        cells = [r["dataset"], mapper, wall,
+        cells = [r["dataset"], r.get("camera_setup") or "–", mapper, wall,
                  fmt(r.get("peak_rss_mb"), 0, " MB"), registered]
         cells += [auc3 if t == "3" else fmt(ev.get("auc@" + t))
                   for t in AUC_THRESHOLDS]
@@ -1594,6 +1657,15 @@ def self_test():
     expect(parse_reference_text("# no table\n| a | b |\n|---|---|\n") is None,
            "no reference table")
 
+    expect(camera_setup_label("per_image_exif", "OPENCV", 0.02) ==
+           "per image OPENCV, EXIF 2% off", "camera setup label")
+    expect(camera_setup_label("shared", "PINHOLE", 0.02) ==
+           "shared PINHOLE, no prior", "shared camera setup label")
+    expect(FINISH_RE.search(
+        "Global mapper finished in 2.0 s: 1 model(s), 51 of 51 images "
+        "registered; pose verification re-placed 0 and left out 0 image(s); "
+        "1 warning(s): Focal lengths not determined: ...").group(3) == "51",
+        "final line with a warning")
     match = FINISH_RE.search(
         "I1201 12:00:00.1 global_mapper.cc:355] Global mapper finished in "
         "12.3 s: 1 model(s), 47 of 47 images registered; pose verification "
@@ -1906,6 +1978,20 @@ def main():
                         metavar="DATASET", help="judge this dataset (folder "
                         "name) against the stock mapper of this run, like "
                         "dino-363; may repeat")
+    parser.add_argument("--camera_setup", choices=CAMERA_SETUPS,
+                        default="database", help="run every mapper on the "
+                        "databases as they are (default), or on copies "
+                        "rewritten to one shared camera, one camera per image "
+                        "without focal prior, or one per image with an "
+                        "EXIF-like prior (scripts/rewrite_cameras.py); bars "
+                        "then relative to the stock mapper")
+    parser.add_argument("--camera_model", default="SIMPLE_RADIAL",
+                        help="camera model of a rewritten setup (default: "
+                        "%(default)s)")
+    parser.add_argument("--exif_error", type=float, default=0.02,
+                        help="per_image_exif: the EXIF focal is off the "
+                        "ground truth by up to this fraction (default: "
+                        "%(default)s)")
     parser.add_argument("--position_thresholds", default="0.01,0.05,0.1",
                         help="distance thresholds of the position AUC, in "
                         "ground-truth units (default: %(default)s)")
@@ -1947,6 +2033,12 @@ def main():
             synthetic.append(path)
     if not datasets:
         sys.exit("error: no dataset folder with a database.db found")
+    if args.camera_setup != "database":
+        rewritten = [camera_setup_dataset(args, d) for d in datasets]
+        synthetic = [r for d, r in zip(datasets, rewritten) if d in synthetic]
+        datasets = rewritten
+        # The READMEs' reference figures are for the databases as they are.
+        args.stock_relative += [os.path.basename(d) for d in datasets]
     mappers = []
     if not args.skip_global:
         mappers.append("global")
@@ -1980,6 +2072,9 @@ def main():
         "repeats": repeats,
         "mappers": mappers,
         "pose_auc_thresholds": args.pose_thresholds or "1,3,5,10",
+        "camera_setup": camera_setup_label(args.camera_setup,
+                                           args.camera_model,
+                                           args.exif_error),
     }
     if args.reference_colmap:
         meta["reference_colmap"] = binary_info(args.reference_colmap)
