@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 
@@ -167,21 +168,27 @@ INSTANTIATE_TEST_SUITE_P(
 // project with one camera per image and identical start values can be.
 
 struct SyntheticRun {
+  std::string database_path;
   colmap::Reconstruction truth;
   colmap::Reconstruction model;
   ModelEvaluation evaluation;
 };
 
-void RunSynthetic(const SyntheticSceneOptions& scene, const std::string& name,
-                  SyntheticRun* run) {
+// Writes `scene`, lets `edit_database` change the database (if set), runs
+// the mapper with `options` and evaluates its first model.
+void RunSynthetic(
+    const SyntheticSceneOptions& scene, const std::string& name,
+    SyntheticRun* run,
+    const GlobalMapperOptions& options = GlobalMapperOptions(),
+    const std::function<void(const std::string&)>& edit_database = {}) {
   const std::string dir = testing::CreateTestDir("camera_setups_" + name);
-  const std::string database_path = dir + "/database.db";
-  ASSERT_TRUE(WriteSyntheticScene(scene, database_path, &run->truth).ok());
-  GlobalMapperOptions options;
+  run->database_path = dir + "/database.db";
+  ASSERT_TRUE(WriteSyntheticScene(scene, run->database_path, &run->truth).ok());
+  if (edit_database) edit_database(run->database_path);
   colmap::Reconstruction work;
   std::vector<colmap::Reconstruction> models;
   const Status status =
-      GlobalMapper(options).Run(database_path, &work, &models);
+      GlobalMapper(options).Run(run->database_path, &work, &models);
   ASSERT_TRUE(status.ok()) << status.message();
   ASSERT_GE(models.size(), 1u);
   run->model = std::move(models[0]);
@@ -275,13 +282,13 @@ TEST_P(CameraSetupsSynthetic, KnownIntrinsicsKeptBitForBit) {
   scene.database_camera_per_image = true;
   scene.prior_focal_length = true;
   scene.random_seed = GetParam();
-  const std::string dir = testing::CreateTestDir("camera_setups_known_" +
-                                                 std::to_string(GetParam()));
-  const std::string database_path = dir + "/database.db";
-  colmap::Reconstruction truth;
-  ASSERT_TRUE(WriteSyntheticScene(scene, database_path, &truth).ok());
+  GlobalMapperOptions options;
+  options.random_seed = GetParam();
+  options.bundle_adjustment.refine_focal_length = false;
+  options.bundle_adjustment.refine_principal_point = false;
+  options.bundle_adjustment.refine_extra_params = false;
   // The EXIF focals 2% off the truth, as a camera's metadata gives them.
-  {
+  auto exif_two_percent_off = [](const std::string& database_path) {
     colmap::Database database(database_path);
     for (colmap::Camera& camera : database.ReadAllCameras()) {
       for (const size_t idx : camera.FocalLengthIdxs()) {
@@ -289,23 +296,15 @@ TEST_P(CameraSetupsSynthetic, KnownIntrinsicsKeptBitForBit) {
       }
       database.UpdateCamera(camera);
     }
-  }
-  GlobalMapperOptions options;
-  options.random_seed = GetParam();
-  options.bundle_adjustment.refine_focal_length = false;
-  options.bundle_adjustment.refine_principal_point = false;
-  options.bundle_adjustment.refine_extra_params = false;
-  colmap::Reconstruction work;
-  std::vector<colmap::Reconstruction> models;
-  const Status status =
-      GlobalMapper(options).Run(database_path, &work, &models);
-  ASSERT_TRUE(status.ok()) << status.message();
-  ASSERT_GE(models.size(), 1u);
-  colmap::Database database(database_path);
+  };
+  SyntheticRun known;
+  RunSynthetic(scene, "known_" + std::to_string(GetParam()), &known, options,
+               exif_two_percent_off);
+  colmap::Database database(known.database_path);
   int num_compared = 0;
   for (const colmap::Camera& db_camera : database.ReadAllCameras()) {
-    if (!models[0].ExistsCamera(db_camera.CameraId())) continue;
-    const colmap::Camera& camera = models[0].Camera(db_camera.CameraId());
+    if (!known.model.ExistsCamera(db_camera.CameraId())) continue;
+    const colmap::Camera& camera = known.model.Camera(db_camera.CameraId());
     EXPECT_EQ(camera.ModelId(), db_camera.ModelId());
     EXPECT_EQ(camera.Params(), db_camera.Params())
         << "camera " << db_camera.CameraId();

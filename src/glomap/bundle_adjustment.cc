@@ -360,6 +360,19 @@ class PoseCostFunction {
   const double observed_y_;
 };
 
+// PoseCostFunction of `camera`'s model for the keypoint `point2D`.
+ceres::CostFunction* NewPoseCostFunction(const colmap::Camera& camera,
+                                         const Eigen::Vector2d& point2D) {
+  switch (camera.ModelId()) {
+#define CAMERA_MODEL_CASE(CameraModel) \
+  case colmap::CameraModel::kModelId:  \
+    return PoseCostFunction<colmap::CameraModel>::Create(point2D);
+    CAMERA_MODEL_SWITCH_CASES
+#undef CAMERA_MODEL_CASE
+  }
+  return nullptr;
+}
+
 // Pose blocks of the joint solve, copied from and back to the images
 // (colmap::Image keeps rotation and translation in separate vectors).
 using PoseBlock = std::array<double, 7>;
@@ -499,6 +512,22 @@ void AddIntrinsicsPriors(const GlobalBundleAdjustmentOptions& options,
   }
 }
 
+// `camera`'s parameter block in `problem`: its soft priors
+// (AddIntrinsicsPriors) and the parameters `ba_options` holds.
+void SetUpCameraBlock(const GlobalBundleAdjustmentOptions& options,
+                      const colmap::BundleAdjustmentOptions& ba_options,
+                      colmap::Camera* camera, ceres::Problem* problem) {
+  AddIntrinsicsPriors(options, ba_options, camera, problem);
+  const std::vector<int> constant_params =
+      ConstantCameraParams(*camera, ba_options);
+  if (constant_params.size() == camera->NumParams()) {
+    problem->SetParameterBlockConstant(camera->ParamsData());
+  } else if (!constant_params.empty()) {
+    colmap::SetSubsetManifold(static_cast<int>(camera->NumParams()),
+                              constant_params, problem, camera->ParamsData());
+  }
+}
+
 Status Solve(const GlobalBundleAdjustmentOptions& options,
              const colmap::BundleAdjustmentOptions& ba_options,
              const std::vector<colmap::image_t>& image_ids,
@@ -550,16 +579,8 @@ Status Solve(const GlobalBundleAdjustmentOptions& options,
         problem.AddResidualBlock(cost_function, loss_function.get(), tvec_data,
                                  point3D.XYZ().data(), camera.ParamsData());
       } else {
-        switch (camera.ModelId()) {
-#define CAMERA_MODEL_CASE(CameraModel)                               \
-  case colmap::CameraModel::kModelId:                                \
-    cost_function =                                                  \
-        PoseCostFunction<colmap::CameraModel>::Create(point2D.XY()); \
-    break;
-          CAMERA_MODEL_SWITCH_CASES
-#undef CAMERA_MODEL_CASE
-        }
-        problem.AddResidualBlock(cost_function, loss_function.get(), pose_data,
+        problem.AddResidualBlock(NewPoseCostFunction(camera, point2D.XY()),
+                                 loss_function.get(), pose_data,
                                  point3D.XYZ().data(), camera.ParamsData());
       }
       has_residuals = true;
@@ -611,17 +632,9 @@ Status Solve(const GlobalBundleAdjustmentOptions& options,
 
   for (const colmap::camera_t camera_id : camera_ids) {
     colmap::Camera& camera = reconstruction->Camera(camera_id);
-    AddIntrinsicsPriors(options,
-                        fix_rotations ? FocalOnly(ba_options) : ba_options,
-                        &camera, &problem);
-    const std::vector<int> constant_params = ConstantCameraParams(
-        camera, fix_rotations ? FocalOnly(ba_options) : ba_options);
-    if (constant_params.size() == camera.NumParams()) {
-      problem.SetParameterBlockConstant(camera.ParamsData());
-    } else if (!constant_params.empty()) {
-      colmap::SetSubsetManifold(static_cast<int>(camera.NumParams()),
-                                constant_params, &problem, camera.ParamsData());
-    }
+    SetUpCameraBlock(options,
+                     fix_rotations ? FocalOnly(ba_options) : ba_options,
+                     &camera, &problem);
   }
 
   ceres::Solver::Options solver_options = ba_options.solver_options;
@@ -948,31 +961,14 @@ Status RefineImagesWithPointsFixed(
       if (!point2D.HasPoint3D()) continue;
       const Eigen::Vector3d& xyz = points.Point3D(point2D.Point3DId()).XYZ();
       xyzs.push_back({xyz.x(), xyz.y(), xyz.z()});
-      ceres::CostFunction* cost_function = nullptr;
-      switch (camera.ModelId()) {
-#define CAMERA_MODEL_CASE(CameraModel)                               \
-  case colmap::CameraModel::kModelId:                                \
-    cost_function =                                                  \
-        PoseCostFunction<colmap::CameraModel>::Create(point2D.XY()); \
-    break;
-        CAMERA_MODEL_SWITCH_CASES
-#undef CAMERA_MODEL_CASE
-      }
-      problem.AddResidualBlock(cost_function, loss_function.get(), pose.data(),
+      problem.AddResidualBlock(NewPoseCostFunction(camera, point2D.XY()),
+                               loss_function.get(), pose.data(),
                                xyzs.back().data(), camera.ParamsData());
       problem.SetParameterBlockConstant(xyzs.back().data());
     }
     if (problem.NumResiduals() == 0) return;
     problem.SetManifold(pose.data(), NewPoseAboutCenterManifold());
-    AddIntrinsicsPriors(options, ba_options, &camera, &problem);
-    const std::vector<int> constant_params =
-        ConstantCameraParams(camera, ba_options);
-    if (constant_params.size() == camera.NumParams()) {
-      problem.SetParameterBlockConstant(camera.ParamsData());
-    } else if (!constant_params.empty()) {
-      colmap::SetSubsetManifold(static_cast<int>(camera.NumParams()),
-                                constant_params, &problem, camera.ParamsData());
-    }
+    SetUpCameraBlock(options, ba_options, &camera, &problem);
     ceres::Solver::Options solver_options;
     solver_options.linear_solver_type = ceres::DENSE_QR;
     solver_options.max_num_iterations = options.max_num_iterations;
