@@ -795,9 +795,7 @@ def run_one(args, dataset, mapper, seed, index, total, repeat=0, repeats=1):
     record = {"dataset": name, "mapper": mapper, "command": command_name,
               "binary": binary, "status": "ok", "repeat": repeat,
               "camera_setup": camera_setup_label(
-                  getattr(args, "camera_setup", "database"),
-                  getattr(args, "camera_model", ""),
-                  getattr(args, "exif_error", 0))}
+                  args.camera_setup, args.camera_model, args.exif_error)}
     if seed is not None:
         record["seed"] = seed
     record["db_images"] = count_db_images(database)
