@@ -4,6 +4,10 @@
 
 namespace colmap {
 
+// colmap automatic_reconstructor: COLMAP 3.8's command, unchanged, or with
+// `--mapper global` its extraction and matching followed by the global mapper.
+int RunAutomaticReconstructorWithMapperChoice(int argc, char** argv);
+
 // colmap global_mapper: global Structure-from-Motion from a COLMAP database.
 int RunGlobalMapper(int argc, char** argv);
 
