@@ -6,11 +6,18 @@
 #include <string>
 #include <vector>
 
+#include "colmap_ext/extraction_and_matching.h"
 #include "colmap_ext/global_mapper_options.h"
+#include "colmap_ext/global_mapper_run.h"
 #include "colmap_ext/terminate_handler.h"
+#include "feature/extraction.h"
+#include "feature/matching.h"
 #include "gui/global_mapper_options_dialog.h"
+#include "ui/automatic_reconstruction_widget.h"
 #include "ui/main_window.h"
+#include "ui/thread_control_widget.h"
 #include "util/misc.h"
+#include "util/option_manager.h"
 
 namespace colmap {
 namespace {
@@ -72,6 +79,7 @@ GlobalReconstructionUi::GlobalReconstructionUi(MainWindow* main_window)
   CreateActions();
   CreateStatusWidgets();
   ConnectProjectActions();
+  InstallAutomaticMapperChoice();
   options_dialog_ = new GlobalMapperOptionsDialog(window_, &options_, [this]() {
     // Like a project file written by Save: keep the options with the
     // project as soon as it has a file.
@@ -264,26 +272,41 @@ void GlobalReconstructionUi::ReportExceptions(
 }
 
 void GlobalReconstructionUi::Run() {
-  if (IsRunning()) return;
+  if (IsRunning() || extracting_and_matching_) return;
   if (!window_->options_.Check()) {
     window_->ShowInvalidProjectError();
     return;
   }
+  automatic_sparse_path_.clear();
+  StartRun(*window_->options_.database_path, *window_->options_.image_path,
+           /*ask_overwrite=*/true);
+}
+
+void GlobalReconstructionUi::StartRun(const std::string& database_path,
+                                      const std::string& image_path,
+                                      bool ask_overwrite) {
   // A missing or unreadable database is reported by the pipeline's database
   // reader, through the run's status, as on the command line.
   glomap::GlobalMapperOptions options = options_;
-  options.image_path = *window_->options_.image_path;
+  options.image_path = image_path;
   if (const glomap::Status check = options.Check(); !check.ok()) {
     ShowError(check.message());
     return;
   }
-  // Asks before replacing existing models; stops the incremental mapper.
-  if (!window_->ReconstructionOverwrite()) return;
+  if (ask_overwrite) {
+    // Asks before replacing existing models; stops the incremental mapper.
+    if (!window_->ReconstructionOverwrite()) return;
+  } else {
+    // As the stock Automatic reconstruction: the window's models go.
+    window_->reconstruction_manager_.Clear();
+    window_->reconstruction_manager_widget_->Update();
+    window_->RenderClear();
+    window_->RenderNow();
+  }
 
   if (controller_) controller_->Wait();
   controller_ = std::make_unique<glomap::GlobalMapperController>(
-      options, *window_->options_.database_path,
-      &window_->reconstruction_manager_);
+      options, database_path, &window_->reconstruction_manager_);
   glomap::GlobalMapperController* controller = controller_.get();
   controller->AddCallback(
       glomap::GlobalMapperController::STAGE_CALLBACK, [this]() {
@@ -348,6 +371,146 @@ void GlobalReconstructionUi::Run() {
     cancel_button_->hide();
     ShowError(last_status_.message());
   }
+}
+
+void GlobalReconstructionUi::InstallAutomaticMapperChoice() {
+  AutomaticReconstructionWidget* widget =
+      window_->automatic_reconstruction_widget_;
+  QGridLayout* grid = widget->grid_layout_;
+  QPushButton* run_button = nullptr;
+  for (QPushButton* button : widget->findChildren<QPushButton*>()) {
+    if (button->text() == tr("Run")) run_button = button;
+  }
+  if (grid == nullptr || run_button == nullptr) {
+    LOG(WARNING) << "Automatic reconstruction has no Run button: its mapper "
+                    "choice is not installed.";
+    return;
+  }
+  // The Mapper row and the options button go above the Run button.
+  grid->removeWidget(run_button);
+  const int row = grid->rowCount();
+  QLabel* label = new QLabel(tr("Mapper"), widget);
+  label->setFont(widget->font());
+  label->setAlignment(Qt::AlignRight | Qt::AlignVCenter);
+  grid->addWidget(label, row, 0);
+  automatic_mapper_cb_ = new QComboBox(widget);
+  automatic_mapper_cb_->addItem(tr("Incremental"));
+  automatic_mapper_cb_->addItem(tr("Global"));
+  automatic_mapper_cb_->setToolTip(
+      tr("Incremental: COLMAP's mapper. Global: the global mapper, with the "
+         "options of Reconstruction > Global reconstruction options..."));
+  grid->addWidget(automatic_mapper_cb_, row, 1);
+  QPushButton* options_button =
+      new QPushButton(tr("Global mapper options..."), widget);
+  connect(options_button, &QPushButton::clicked, this,
+          [this]() { ReportExceptions([this]() { ShowOptions(); }); });
+  grid->addWidget(options_button, row + 1, 1);
+  grid->addWidget(run_button, row + 2, 1);
+  // The stock Run still runs the incremental choice.
+  run_button->disconnect(widget);
+  connect(run_button, &QPushButton::released, this, [this, widget]() {
+    ReportExceptions([this, widget]() {
+      if (automatic_mapper_cb_->currentIndex() == 1) {
+        RunAutomatic();
+      } else {
+        widget->Run();
+      }
+    });
+  });
+}
+
+void GlobalReconstructionUi::RunAutomatic() {
+  if (IsRunning() || extracting_and_matching_) return;
+  AutomaticReconstructionWidget* widget =
+      window_->automatic_reconstruction_widget_;
+  widget->WriteOptions();
+  const AutomaticReconstructionController::Options& settings = widget->options_;
+  // The stock widget's checks and messages.
+  if (!ExistsDir(settings.workspace_path)) {
+    QMessageBox::critical(widget, "", tr("Invalid workspace folder"));
+    return;
+  }
+  if (!ExistsDir(settings.image_path)) {
+    QMessageBox::critical(widget, "", tr("Invalid image folder"));
+    return;
+  }
+  const char* const kDataTypes[] = {"individual", "video", "internet"};
+  const char* const kQualities[] = {"low", "medium", "high", "extreme"};
+  const std::string data_type =
+      kDataTypes[std::clamp(widget->data_type_cb_->currentIndex(), 0, 2)];
+  const std::string quality =
+      kQualities[std::clamp(widget->quality_cb_->currentIndex(), 0, 3)];
+
+  auto options = std::make_unique<OptionManager>();
+  const std::string preset_error =
+      ApplyGlobalPresets(data_type, quality, options.get());
+  if (!preset_error.empty()) {
+    ShowError(preset_error);
+    return;
+  }
+  options->AddAllOptions();
+  *options->database_path = JoinPaths(settings.workspace_path, "database.db");
+  *options->image_path = settings.image_path;
+  ImageReaderOptions& reader = *options->image_reader;
+  reader.database_path = *options->database_path;
+  reader.image_path = settings.image_path;
+  if (!settings.mask_path.empty()) reader.mask_path = settings.mask_path;
+  reader.single_camera = settings.single_camera;
+  reader.camera_model = settings.camera_model;
+  options->sift_extraction->num_threads = settings.num_threads;
+  options->sift_matching->num_threads = settings.num_threads;
+  options->sift_extraction->use_gpu = settings.use_gpu;
+  options->sift_matching->use_gpu = settings.use_gpu;
+  options->sift_extraction->gpu_index = settings.gpu_index;
+  options->sift_matching->gpu_index = settings.gpu_index;
+  automatic_options_ = std::move(options);
+  automatic_sparse_path_ = JoinPaths(settings.workspace_path, "sparse");
+  automatic_sparse_ = settings.sparse;
+  automatic_dense_ = settings.dense;
+  std::cout << "Automatic reconstruction with the global mapper: COLMAP "
+               "3.8's extraction and matching into "
+            << *automatic_options_->database_path
+            << ", then the global mapper into " << automatic_sparse_path_ << "."
+            << std::endl;
+
+  auto thread = std::make_unique<ExtractionAndMatching>(
+      *automatic_options_, data_type, settings.vocab_tree_path);
+  ExtractionAndMatching* raw = thread.get();
+  thread->AddCallback(Thread::FINISHED_CALLBACK, [this, raw]() {
+    const std::string error = raw->Error();
+    const bool stopped = raw->IsStopped();
+    QMetaObject::invokeMethod(
+        this,
+        [this, error, stopped]() {
+          ReportExceptions([this, &error, stopped]() {
+            OnExtractionAndMatchingFinished(error, stopped);
+          });
+        },
+        Qt::QueuedConnection);
+  });
+  extracting_and_matching_ = true;
+  widget->thread_control_widget_->StartThread(tr("Extracting and matching..."),
+                                              true, std::move(thread));
+}
+
+void GlobalReconstructionUi::OnExtractionAndMatchingFinished(
+    const std::string& error, bool stopped) {
+  extracting_and_matching_ = false;
+  if (stopped || closing_) {
+    automatic_sparse_path_.clear();
+    return;
+  }
+  if (!error.empty()) {
+    automatic_sparse_path_.clear();
+    ShowError(error);
+    return;
+  }
+  if (!automatic_sparse_) {
+    automatic_sparse_path_.clear();
+    return;
+  }
+  StartRun(*automatic_options_->database_path, *automatic_options_->image_path,
+           /*ask_overwrite=*/false);
 }
 
 void GlobalReconstructionUi::Cancel() {
@@ -486,6 +649,20 @@ void GlobalReconstructionUi::OnFinished() {
     if (!warnings.empty()) {
       text += QString(" \u2014 %1 warning(s), see the tooltip or the log")
                   .arg(warnings.size());
+    }
+    if (!automatic_sparse_path_.empty()) {
+      // Automatic reconstruction: the models go to WORKSPACE/sparse, as the
+      // command writes them (atomically: a failure keeps the old ones).
+      error = WriteModels(models, controller_->GetGeoregistration(),
+                          automatic_sparse_path_, *automatic_options_);
+      text += QString(" \u2014 written to %1")
+                  .arg(QString::fromStdString(automatic_sparse_path_));
+      if (automatic_dense_) {
+        std::cout << "WARNING: Skipping dense reconstruction: patch-match "
+                     "stereo needs CUDA, which this COLMAP was built "
+                     "without; the sparse models stay in "
+                  << automatic_sparse_path_ << "." << std::endl;
+      }
     }
     progress_label_->setText(text);
     progress_label_->setToolTip(details.join("\n\n"));

@@ -26,6 +26,7 @@ namespace colmap {
 
 class MainWindow;
 class GlobalMapperOptionsDialog;
+class OptionManager;
 
 class GlobalReconstructionUi : public QObject {
  public:
@@ -50,6 +51,14 @@ class GlobalReconstructionUi : public QObject {
   // The main window's models (what its reconstruction manager holds).
   const ReconstructionManager& Models() const;
 
+  // Automatic reconstruction's "Mapper" choice: Incremental (COLMAP 3.8's
+  // run, unchanged) or Global (3.8's extraction and matching, then the
+  // global mapper with its progress, pause and cancel in the status bar, the
+  // models written to WORKSPACE/sparse).
+  QComboBox* AutomaticMapperChoice() const { return automatic_mapper_cb_; }
+  // A global Automatic reconstruction is extracting or matching.
+  bool IsExtractingAndMatching() const { return extracting_and_matching_; }
+
   // The options file kept beside a project file: `dir/name.ini` ->
   // `dir/name.global_mapper.ini`. Stock COLMAP 3.8 rejects unknown keys in a
   // project file, so the GlobalMapper.* options never go into it.
@@ -66,6 +75,16 @@ class GlobalReconstructionUi : public QObject {
   void ConnectProjectActions();
 
   void Run();
+  // Runs the global mapper on a database; `ask_overwrite`: ask before
+  // replacing the window's models (Global reconstruction) or not
+  // (Automatic reconstruction, as the stock widget).
+  void StartRun(const std::string& database_path, const std::string& image_path,
+                bool ask_overwrite);
+  void InstallAutomaticMapperChoice();
+  // Automatic reconstruction with the Global mapper: extraction and matching
+  // in the widget's progress dialog, then StartRun on the workspace.
+  void RunAutomatic();
+  void OnExtractionAndMatchingFinished(const std::string& error, bool stopped);
   void Cancel();
   // The status bar's "Pause"/"Resume" button.
   void TogglePause();
@@ -120,6 +139,16 @@ class GlobalReconstructionUi : public QObject {
   std::unique_ptr<google::LogSink> log_sink_;
 
   std::vector<std::pair<QAction*, bool>> locked_actions_;
+
+  QComboBox* automatic_mapper_cb_ = nullptr;
+  bool extracting_and_matching_ = false;
+  // The global Automatic reconstruction's options (extraction, matching,
+  // the models' project.ini) and where its models go; empty for Global
+  // reconstruction.
+  std::unique_ptr<OptionManager> automatic_options_;
+  std::string automatic_sparse_path_;
+  bool automatic_sparse_ = true;
+  bool automatic_dense_ = false;
 };
 
 // Adds "Global reconstruction" to `main_window` (call once, right after

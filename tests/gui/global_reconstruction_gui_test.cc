@@ -773,6 +773,150 @@ TEST_F(GlobalReconstructionGui, OptionsDialogShowsDefaultsAndNamesBadValues) {
   EXPECT_EQ(options.bundle_adjustment.max_num_images_dense_schur, 100);
 }
 
+// The field in the row labelled `label` of an options widget's grid (COLMAP's
+// OptionsWidget puts the label in column 0, the field in column 1).
+QWidget* FieldOfRow(QWidget* widget, const QString& label) {
+  QGridLayout* grid = widget->findChild<QGridLayout*>();
+  if (grid == nullptr) return nullptr;
+  for (int row = 0; row < grid->rowCount(); ++row) {
+    QLayoutItem* label_item = grid->itemAtPosition(row, 0);
+    QLayoutItem* field_item = grid->itemAtPosition(row, 1);
+    if (label_item == nullptr || field_item == nullptr) continue;
+    QLabel* row_label = qobject_cast<QLabel*>(label_item->widget());
+    if (row_label != nullptr && row_label->text() == label) {
+      return field_item->widget();
+    }
+  }
+  return nullptr;
+}
+
+// Reconstruction > Automatic reconstruction with the mapper set to Global,
+// on templeRing's 47 images: COLMAP 3.8's extraction and matching in the
+// widget's progress dialog, then the global mapper with its progress in the
+// status bar; the model shows in the viewer and is written to
+// WORKSPACE/sparse/0. A second run on the same workspace reuses the
+// database and replaces the model.
+TEST_F(GlobalReconstructionGui, AutomaticReconstructionWithTheGlobalMapper) {
+  const std::string datasets = glomap::testing::SharedDatasetsDir();
+  const fs::path source = fs::path(datasets) / "templeRing" / "images";
+  if (datasets.empty() || !fs::is_directory(source) || fs::is_empty(source)) {
+    GTEST_SKIP() << "templeRing's images are not in the shared datasets.";
+  }
+  ASSERT_TRUE(WriteSyntheticProject("automatic_global_gui", 10));
+  const fs::path images = fs::path(test_dir_) / "temple_images";
+  fs::create_directories(images);
+  std::vector<fs::path> sources;
+  for (const auto& entry : fs::directory_iterator(source)) {
+    sources.push_back(entry.path());
+  }
+  std::sort(sources.begin(), sources.end());
+  for (const fs::path& image : sources) {
+    fs::create_symlink(image, images / image.filename());
+  }
+  const fs::path workspace = fs::path(test_dir_) / "workspace";
+  fs::create_directories(workspace);
+
+  OpenProject(QSize(1400, 860));
+  RecordMessages(/*answer_yes=*/false);
+  QAction* automatic =
+      FindMenuAction(window(), "Reconstruction", "Automatic reconstruction");
+  ASSERT_NE(automatic, nullptr);
+  automatic->trigger();
+  ProcessEventsFor(200);
+  QWidget* widget = nullptr;
+  for (QWidget* candidate : window()->findChildren<QWidget*>()) {
+    if (candidate->isWindow() &&
+        candidate->windowTitle() == "Automatic reconstruction") {
+      widget = candidate;
+    }
+  }
+  ASSERT_NE(widget, nullptr);
+  ASSERT_TRUE(widget->isVisible());
+  QLineEdit* workspace_field =
+      qobject_cast<QLineEdit*>(FieldOfRow(widget, "Workspace folder"));
+  QLineEdit* image_field =
+      qobject_cast<QLineEdit*>(FieldOfRow(widget, "Image folder"));
+  QCheckBox* gpu = qobject_cast<QCheckBox*>(FieldOfRow(widget, "GPU"));
+  ASSERT_NE(workspace_field, nullptr);
+  ASSERT_NE(image_field, nullptr);
+  ASSERT_NE(gpu, nullptr);
+  workspace_field->setText(QString::fromStdString(workspace.string()));
+  image_field->setText(QString::fromStdString(images.string()));
+  gpu->setChecked(false);
+
+  // The mapper choice, beside the stock fields; Incremental by default.
+  QComboBox* mapper = qobject_cast<QComboBox*>(FieldOfRow(widget, "Mapper"));
+  ASSERT_NE(mapper, nullptr);
+  EXPECT_EQ(mapper, ui_->AutomaticMapperChoice());
+  EXPECT_EQ(mapper->currentText(), "Incremental");
+  mapper->setCurrentIndex(mapper->findText("Global"));
+  ASSERT_EQ(mapper->currentText(), "Global");
+  QPushButton* options_button = nullptr;
+  QPushButton* run_button = nullptr;
+  for (QPushButton* button : widget->findChildren<QPushButton*>()) {
+    if (button->text() == "Global mapper options...") options_button = button;
+    if (button->text() == "Run") run_button = button;
+  }
+  ASSERT_NE(options_button, nullptr);
+  ASSERT_NE(run_button, nullptr);
+  options_button->click();
+  ProcessEventsFor(100);
+  EXPECT_TRUE(ui_->OptionsDialog()->isVisible());
+  ui_->OptionsDialog()->hide();
+
+  const auto run_to_the_end = [&](const std::string& what) {
+    QElapsedTimer timer;
+    timer.start();
+    run_button->click();
+    EXPECT_TRUE(ui_->IsExtractingAndMatching());
+    bool saw_global_stage = false;
+    EXPECT_TRUE(WaitUntil(
+        [&]() {
+          saw_global_stage =
+              saw_global_stage ||
+              !StatusBarLabel(window(), "Global reconstruction: Stage")
+                   .isEmpty();
+          return !ui_->IsExtractingAndMatching() && !ui_->IsRunning() &&
+                 !StatusBarLabel(window(), "Global reconstruction: 1 model")
+                      .isEmpty();
+        },
+        kRunTimeoutMs))
+        << StatusBarText(window()).toStdString()
+        << messages_.join("\n").toStdString();
+    printf("Automatic reconstruction (%s) took %lld ms\n", what.c_str(),
+           timer.elapsed());
+    EXPECT_TRUE(saw_global_stage);
+  };
+  run_to_the_end("first run");
+  EXPECT_TRUE(ui_->LastStatus().ok()) << ui_->LastStatus().message();
+  ASSERT_EQ(ui_->Models().Size(), 1u);
+  EXPECT_EQ(ui_->Models().Get(0).NumRegImages(), sources.size());
+  EXPECT_GT(ui_->NumModelUpdatesShown(), 0);
+  EXPECT_TRUE(StatusBarLabel(window(), "Global reconstruction: 1 model")
+                  .contains("written to"));
+  Reconstruction written;
+  written.ReadBinary((workspace / "sparse" / "0").string());
+  EXPECT_EQ(written.NumRegImages(), sources.size());
+  EXPECT_TRUE(messages_.isEmpty()) << messages_.join("\n").toStdString();
+  // The viewer draws the model.
+  ProcessEventsFor(300);
+  QWidget* viewer = window_->centralWidget();
+  const QRect viewer_rect(viewer->mapTo(window(), QPoint(0, 0)),
+                          viewer->size());
+  EXPECT_GT(DrawnFraction(window_->grab().toImage(), viewer_rect), 0.002);
+
+  // Again on the same workspace: the database's features are kept.
+  const auto num_keypoints = [&]() {
+    Database database((workspace / "database.db").string());
+    return database.NumKeypoints();
+  };
+  const size_t keypoints_before = num_keypoints();
+  run_to_the_end("rerun");
+  EXPECT_EQ(num_keypoints(), keypoints_before);
+  EXPECT_EQ(ui_->Models().Size(), 1u);
+  EXPECT_TRUE(messages_.isEmpty()) << messages_.join("\n").toStdString();
+}
+
 TEST_F(GlobalReconstructionGui, ErrorShowsTheCommandLineMessage) {
   if (!WriteFountainProject("global_reconstruction_gui_error")) {
     GTEST_SKIP() << "Shared dataset fountain-P11 not found.";
