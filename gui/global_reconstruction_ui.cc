@@ -489,6 +489,7 @@ void GlobalReconstructionUi::RunAutomatic() {
         Qt::QueuedConnection);
   });
   extracting_and_matching_ = true;
+  extraction_and_matching_thread_ = raw;
   widget->thread_control_widget_->StartThread(tr("Extracting and matching..."),
                                               true, std::move(thread));
 }
@@ -496,6 +497,7 @@ void GlobalReconstructionUi::RunAutomatic() {
 void GlobalReconstructionUi::OnExtractionAndMatchingFinished(
     const std::string& error, bool stopped) {
   extracting_and_matching_ = false;
+  extraction_and_matching_thread_ = nullptr;
   if (stopped || closing_) {
     automatic_sparse_path_.clear();
     return;
@@ -704,6 +706,23 @@ void GlobalReconstructionUi::UnlockWindow() {
 }
 
 bool GlobalReconstructionUi::eventFilter(QObject* watched, QEvent* event) {
+  if (watched == window_ && event->type() == QEvent::Close &&
+      extracting_and_matching_) {
+    // The window asks first; if it closes, extraction or matching stops
+    // (its thread must end before the widget that owns it goes).
+    static_cast<QObject*>(window_)->event(event);
+    if (event->isAccepted()) {
+      closing_ = true;
+      extraction_and_matching_thread_->Stop();
+      while (extracting_and_matching_) {
+        QCoreApplication::processEvents(QEventLoop::ExcludeUserInputEvents, 20);
+        QThread::msleep(5);
+      }
+      // The thread control's own clean-up (join, reset) is queued too.
+      QCoreApplication::processEvents(QEventLoop::ExcludeUserInputEvents, 50);
+    }
+    return true;
+  }
   if (watched == window_ && event->type() == QEvent::Close && IsRunning()) {
     // The window asks its questions first; stop only if it really closes.
     static_cast<QObject*>(window_)->event(event);

@@ -142,6 +142,9 @@ class GlobalReconstructionUi : public QObject {
 
   QComboBox* automatic_mapper_cb_ = nullptr;
   bool extracting_and_matching_ = false;
+  // The extraction and matching thread while it runs (owned by the
+  // Automatic reconstruction widget's thread control).
+  Thread* extraction_and_matching_thread_ = nullptr;
   // The global Automatic reconstruction's options (extraction, matching,
   // the models' project.ini) and where its models go; empty for Global
   // reconstruction.

@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <string>
@@ -18,6 +19,8 @@
 #include "base/reconstruction.h"
 #include "colmap_ext/model_evaluation.h"
 #include "tests/support/test_paths.h"
+#include "feature/extraction.h"
+#include "util/option_manager.h"
 
 namespace glomap {
 namespace {
@@ -180,6 +183,59 @@ TEST(AutomaticReconstructor, IncrementalIsTheStockCommand) {
     EXPECT_FALSE(fs::exists(workspace + "/sparse"));
     EXPECT_EQ(output.find("Global pipeline"), std::string::npos);
   }
+}
+
+// A COLMAP project file gives the image folder and the extraction settings;
+// the command line overrides them.
+TEST(AutomaticReconstructor, ProjectFileSetsExtractionAndCommandLineWins) {
+  const std::string datasets = testing::SharedDatasetsDir();
+  if (datasets.empty()) GTEST_SKIP() << "../shared/datasets is absent";
+  const std::string source = datasets + "/templeRing/images";
+  if (!fs::is_directory(source) || fs::is_empty(source)) {
+    GTEST_SKIP() << source << " is absent or empty";
+  }
+  const std::string dir = CreateTestDir("automatic_project_file");
+  const std::string images = LinkImages(source, dir + "/images", 3);
+  colmap::OptionManager project;
+  project.AddAllOptions();
+  *project.database_path = dir + "/unused.db";
+  *project.image_path = images;
+  project.sift_extraction->max_num_features = 300;
+  const std::string project_path = dir + "/project.ini";
+  project.Write(project_path);
+
+  // Largest number of keypoints of one image in the workspace's database.
+  const auto max_keypoints = [](const std::string& workspace) {
+    colmap::Database database(workspace + "/database.db");
+    size_t max_rows = 0;
+    for (const colmap::Image& image : database.ReadAllImages()) {
+      max_rows =
+          std::max(max_rows, database.NumKeypointsForImage(image.ImageId()));
+    }
+    return max_rows;
+  };
+  const std::string command =
+      ColmapExecutable() + " automatic_reconstructor --project_path " +
+      project_path + " --mapper global --use_gpu 0 --sparse 0";
+  std::string output;
+  ASSERT_EQ(RunCommand(command + " --workspace_path " + dir + "/ws1", &output),
+            0)
+      << output;
+  EXPECT_EQ(CountRows(dir + "/ws1/database.db", "images"), 3);
+  // COLMAP 3.8's CPU SIFT stops at the octave where the limit is passed and
+  // adds extra orientations, so the limit is approximate: without it these
+  // images have 1,300-1,800 keypoints.
+  const size_t from_project = max_keypoints(dir + "/ws1");
+  EXPECT_GT(from_project, 200u);
+  EXPECT_LT(from_project, 800u);
+  EXPECT_FALSE(fs::exists(dir + "/unused.db"));
+  ASSERT_EQ(RunCommand(command + " --workspace_path " + dir +
+                           "/ws2 --SiftExtraction.max_num_features 100",
+                       &output),
+            0)
+      << output;
+  EXPECT_LT(max_keypoints(dir + "/ws2"), 300u);
+  EXPECT_LT(max_keypoints(dir + "/ws2"), from_project);
 }
 
 struct EndToEndCase {

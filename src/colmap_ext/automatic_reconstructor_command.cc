@@ -222,6 +222,12 @@ int RunGlobalAutomaticReconstructor(int argc, char** argv,
   std::string database_flag = "--database_path";
   std::string database_value = *options.database_path;
   args.insert(args.end() - 1, {database_flag.data(), database_value.data()});
+  // It requires --image_path too, which a project file may give instead.
+  std::string image_flag = "--image_path";
+  std::string image_value = *options.image_path;
+  if (!HasArgument(argc, argv, "image_path") && !image_value.empty()) {
+    args.insert(args.end() - 1, {image_flag.data(), image_value.data()});
+  }
   if (!wants_help) {
     const std::string error =
         CheckInputPaths("", FindArgument(argc, argv, "image_path"));

@@ -270,6 +270,12 @@ class GlobalReconstructionGui : public ::testing::Test {
 
   MainWindow* window() { return window_.get(); }
 
+  // Opens Reconstruction > Automatic reconstruction from the menu and fills
+  // in its workspace and image folders, with the GPU off (no SiftGPU under
+  // Xvfb); the widget, or null (the failure reported) if a part is missing.
+  QWidget* OpenAutomaticReconstruction(const fs::path& workspace,
+                                       const fs::path& images);
+
   // Starts a global run from the menu and waits until the status bar shows
   // `stage`; true if the run is still going then (the stage is reached
   // mid-run).
@@ -329,6 +335,59 @@ class GlobalReconstructionGui : public ::testing::Test {
   QStringList messages_;
   std::unique_ptr<ModalDialogHandler> message_boxes_;
 };
+
+// The field in the row labelled `label` of an options widget's grid (COLMAP's
+// OptionsWidget puts the label in column 0, the field in column 1).
+QWidget* FieldOfRow(QWidget* widget, const QString& label) {
+  QGridLayout* grid = widget->findChild<QGridLayout*>();
+  if (grid == nullptr) return nullptr;
+  for (int row = 0; row < grid->rowCount(); ++row) {
+    QLayoutItem* label_item = grid->itemAtPosition(row, 0);
+    QLayoutItem* field_item = grid->itemAtPosition(row, 1);
+    if (label_item == nullptr || field_item == nullptr) continue;
+    QLabel* row_label = qobject_cast<QLabel*>(label_item->widget());
+    if (row_label != nullptr && row_label->text() == label) {
+      return field_item->widget();
+    }
+  }
+  return nullptr;
+}
+
+QWidget* GlobalReconstructionGui::OpenAutomaticReconstruction(
+    const fs::path& workspace, const fs::path& images) {
+  QAction* automatic =
+      FindMenuAction(window(), "Reconstruction", "Automatic reconstruction");
+  if (automatic == nullptr) {
+    ADD_FAILURE() << "No Reconstruction > Automatic reconstruction";
+    return nullptr;
+  }
+  automatic->trigger();
+  ProcessEventsFor(200);
+  QWidget* widget = nullptr;
+  for (QWidget* candidate : window()->findChildren<QWidget*>()) {
+    if (candidate->isWindow() &&
+        candidate->windowTitle() == "Automatic reconstruction") {
+      widget = candidate;
+    }
+  }
+  if (widget == nullptr) {
+    ADD_FAILURE() << "No Automatic reconstruction window";
+    return nullptr;
+  }
+  QLineEdit* workspace_field =
+      qobject_cast<QLineEdit*>(FieldOfRow(widget, "Workspace folder"));
+  QLineEdit* image_field =
+      qobject_cast<QLineEdit*>(FieldOfRow(widget, "Image folder"));
+  QCheckBox* gpu = qobject_cast<QCheckBox*>(FieldOfRow(widget, "GPU"));
+  if (workspace_field == nullptr || image_field == nullptr || gpu == nullptr) {
+    ADD_FAILURE() << "Automatic reconstruction lacks a folder or GPU field";
+    return nullptr;
+  }
+  workspace_field->setText(QString::fromStdString(workspace.string()));
+  image_field->setText(QString::fromStdString(images.string()));
+  gpu->setChecked(false);
+  return widget;
+}
 
 TEST_F(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
   if (!WriteFountainProject("global_reconstruction_gui")) {
@@ -773,19 +832,10 @@ TEST_F(GlobalReconstructionGui, OptionsDialogShowsDefaultsAndNamesBadValues) {
   EXPECT_EQ(options.bundle_adjustment.max_num_images_dense_schur, 100);
 }
 
-// The field in the row labelled `label` of an options widget's grid (COLMAP's
-// OptionsWidget puts the label in column 0, the field in column 1).
-QWidget* FieldOfRow(QWidget* widget, const QString& label) {
-  QGridLayout* grid = widget->findChild<QGridLayout*>();
-  if (grid == nullptr) return nullptr;
-  for (int row = 0; row < grid->rowCount(); ++row) {
-    QLayoutItem* label_item = grid->itemAtPosition(row, 0);
-    QLayoutItem* field_item = grid->itemAtPosition(row, 1);
-    if (label_item == nullptr || field_item == nullptr) continue;
-    QLabel* row_label = qobject_cast<QLabel*>(label_item->widget());
-    if (row_label != nullptr && row_label->text() == label) {
-      return field_item->widget();
-    }
+// The push button of `widget` labelled `text`, or null.
+QPushButton* ButtonWithText(QWidget* widget, const QString& text) {
+  for (QPushButton* button : widget->findChildren<QPushButton*>()) {
+    if (button->text() == text) return button;
   }
   return nullptr;
 }
@@ -818,31 +868,9 @@ TEST_F(GlobalReconstructionGui, AutomaticReconstructionWithTheGlobalMapper) {
 
   OpenProject(QSize(1400, 860));
   RecordMessages(/*answer_yes=*/false);
-  QAction* automatic =
-      FindMenuAction(window(), "Reconstruction", "Automatic reconstruction");
-  ASSERT_NE(automatic, nullptr);
-  automatic->trigger();
-  ProcessEventsFor(200);
-  QWidget* widget = nullptr;
-  for (QWidget* candidate : window()->findChildren<QWidget*>()) {
-    if (candidate->isWindow() &&
-        candidate->windowTitle() == "Automatic reconstruction") {
-      widget = candidate;
-    }
-  }
+  QWidget* widget = OpenAutomaticReconstruction(workspace, images);
   ASSERT_NE(widget, nullptr);
   ASSERT_TRUE(widget->isVisible());
-  QLineEdit* workspace_field =
-      qobject_cast<QLineEdit*>(FieldOfRow(widget, "Workspace folder"));
-  QLineEdit* image_field =
-      qobject_cast<QLineEdit*>(FieldOfRow(widget, "Image folder"));
-  QCheckBox* gpu = qobject_cast<QCheckBox*>(FieldOfRow(widget, "GPU"));
-  ASSERT_NE(workspace_field, nullptr);
-  ASSERT_NE(image_field, nullptr);
-  ASSERT_NE(gpu, nullptr);
-  workspace_field->setText(QString::fromStdString(workspace.string()));
-  image_field->setText(QString::fromStdString(images.string()));
-  gpu->setChecked(false);
 
   // The mapper choice, beside the stock fields; Incremental by default.
   QComboBox* mapper = qobject_cast<QComboBox*>(FieldOfRow(widget, "Mapper"));
@@ -851,12 +879,9 @@ TEST_F(GlobalReconstructionGui, AutomaticReconstructionWithTheGlobalMapper) {
   EXPECT_EQ(mapper->currentText(), "Incremental");
   mapper->setCurrentIndex(mapper->findText("Global"));
   ASSERT_EQ(mapper->currentText(), "Global");
-  QPushButton* options_button = nullptr;
-  QPushButton* run_button = nullptr;
-  for (QPushButton* button : widget->findChildren<QPushButton*>()) {
-    if (button->text() == "Global mapper options...") options_button = button;
-    if (button->text() == "Run") run_button = button;
-  }
+  QPushButton* options_button =
+      ButtonWithText(widget, "Global mapper options...");
+  QPushButton* run_button = ButtonWithText(widget, "Run");
   ASSERT_NE(options_button, nullptr);
   ASSERT_NE(run_button, nullptr);
   options_button->click();
@@ -915,6 +940,99 @@ TEST_F(GlobalReconstructionGui, AutomaticReconstructionWithTheGlobalMapper) {
   EXPECT_EQ(num_keypoints(), keypoints_before);
   EXPECT_EQ(ui_->Models().Size(), 1u);
   EXPECT_TRUE(messages_.isEmpty()) << messages_.join("\n").toStdString();
+}
+
+// Automatic reconstruction with the Global mapper, cancelled twice: in the
+// progress dialog while extracting, then from the status bar while the
+// global mapper runs. Neither leaves a model or a sparse folder, and the
+// workspace's database stays sound and usable (the second run goes on from
+// the features the first one stored).
+TEST_F(GlobalReconstructionGui, AutomaticReconstructionCancelKeepsWorkspace) {
+  const std::string datasets = glomap::testing::SharedDatasetsDir();
+  const fs::path source = fs::path(datasets) / "templeRing" / "images";
+  if (datasets.empty() || !fs::is_directory(source) || fs::is_empty(source)) {
+    GTEST_SKIP() << "templeRing's images are not in the shared datasets.";
+  }
+  ASSERT_TRUE(WriteSyntheticProject("automatic_global_gui_cancel", 10));
+  const fs::path workspace = fs::path(test_dir_) / "workspace";
+  fs::create_directories(workspace);
+  OpenProject(QSize(1400, 860));
+  RecordMessages(/*answer_yes=*/false);
+  QWidget* widget = OpenAutomaticReconstruction(workspace, source);
+  ASSERT_NE(widget, nullptr);
+  ui_->AutomaticMapperChoice()->setCurrentIndex(1);
+  QPushButton* run_button = ButtonWithText(widget, "Run");
+  ASSERT_NE(run_button, nullptr);
+  const fs::path database = workspace / "database.db";
+
+  // 1. Cancel in the progress dialog while extracting.
+  run_button->click();
+  ASSERT_TRUE(ui_->IsExtractingAndMatching());
+  ProcessEventsFor(1500);
+  QProgressDialog* progress = nullptr;
+  for (QProgressDialog* dialog : widget->findChildren<QProgressDialog*>()) {
+    if (dialog->isVisible()) progress = dialog;
+  }
+  ASSERT_NE(progress, nullptr);
+  QPushButton* cancel_extraction = progress->findChild<QPushButton*>();
+  ASSERT_NE(cancel_extraction, nullptr);
+  cancel_extraction->click();
+  ASSERT_TRUE(
+      WaitUntil([&]() { return !ui_->IsExtractingAndMatching(); }, 60000));
+  ProcessEventsFor(300);
+  EXPECT_FALSE(ui_->IsRunning());
+  EXPECT_FALSE(fs::exists(workspace / "sparse"));
+  size_t num_images_kept = 0;
+  {
+    Database opened(database.string());
+    num_images_kept = opened.NumImages();
+  }
+  EXPECT_LT(num_images_kept, 47u);
+
+  // 2. Run again, cancel once the global mapper runs.
+  run_button->click();
+  ASSERT_TRUE(WaitUntil(
+      [&]() {
+        return ui_->IsRunning() ||
+               (!ui_->IsExtractingAndMatching() && !messages_.isEmpty());
+      },
+      kRunTimeoutMs))
+      << messages_.join("\n").toStdString();
+  ASSERT_TRUE(ui_->IsRunning()) << messages_.join("\n").toStdString();
+  CancelPromptly("automatic reconstruction, global mapper");
+  EXPECT_FALSE(fs::exists(workspace / "sparse"));
+  {
+    Database opened(database.string());
+    EXPECT_EQ(opened.NumImages(), 47u);
+    EXPECT_GT(opened.NumVerifiedImagePairs(), 0u);
+  }
+  EXPECT_TRUE(messages_.isEmpty()) << messages_.join("\n").toStdString();
+}
+
+// Closing the window while Automatic reconstruction (Global) extracts
+// features stops the extraction and closes promptly, without a crash.
+TEST_F(GlobalReconstructionGui, ClosingDuringExtractionStopsIt) {
+  const std::string datasets = glomap::testing::SharedDatasetsDir();
+  const fs::path source = fs::path(datasets) / "templeRing" / "images";
+  if (datasets.empty() || !fs::is_directory(source) || fs::is_empty(source)) {
+    GTEST_SKIP() << "templeRing's images are not in the shared datasets.";
+  }
+  ASSERT_TRUE(WriteSyntheticProject("automatic_global_gui_close", 10));
+  const fs::path workspace = fs::path(test_dir_) / "workspace";
+  fs::create_directories(workspace);
+  OpenProject(QSize(1400, 860));
+  QWidget* widget = OpenAutomaticReconstruction(workspace, source);
+  ASSERT_NE(widget, nullptr);
+  ui_->AutomaticMapperChoice()->setCurrentIndex(1);
+  QPushButton* run_button = ButtonWithText(widget, "Run");
+  ASSERT_NE(run_button, nullptr);
+  run_button->click();
+  ASSERT_TRUE(ui_->IsExtractingAndMatching());
+  ProcessEventsFor(1000);
+  RecordMessages(/*answer_yes=*/true);
+  CloseStopsTheRun("Closing during extraction", 5000);
+  EXPECT_FALSE(ui_->IsExtractingAndMatching());
+  EXPECT_FALSE(fs::exists(workspace / "sparse"));
 }
 
 TEST_F(GlobalReconstructionGui, ErrorShowsTheCommandLineMessage) {
