@@ -11,15 +11,19 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include "base/database.h"
 #include "base/reconstruction.h"
 #include "colmap_ext/model_evaluation.h"
-#include "tests/support/test_paths.h"
 #include "feature/extraction.h"
+#include "tests/support/test_paths.h"
 #include "util/option_manager.h"
 
 namespace glomap {
@@ -236,6 +240,68 @@ TEST(AutomaticReconstructor, ProjectFileSetsExtractionAndCommandLineWins) {
       << output;
   EXPECT_LT(max_keypoints(dir + "/ws2"), 300u);
   EXPECT_LT(max_keypoints(dir + "/ws2"), from_project);
+}
+
+// `--data_type video` matches each image with its neighbours in name order
+// (3.8's sequential matcher, its section's options from the command line);
+// `--dense 1` without CUDA is skipped with one line and the sparse model
+// stays.
+TEST(AutomaticReconstructor, VideoMatchesSequentiallyAndDenseIsSkipped) {
+  const std::string datasets = testing::SharedDatasetsDir();
+  if (datasets.empty()) GTEST_SKIP() << "../shared/datasets is absent";
+  const std::string source = datasets + "/fountain-P11/images";
+  if (!fs::is_directory(source) || fs::is_empty(source)) {
+    GTEST_SKIP() << source << " is absent or empty";
+  }
+  const std::string dir = CreateTestDir("automatic_video");
+  const int kNumImages = 11;
+  const std::string images = LinkImages(source, dir + "/images", kNumImages);
+  const std::string workspace = dir + "/ws";
+  std::string output;
+  ASSERT_EQ(RunCommand(GlobalCommand(images, workspace) +
+                           " --data_type video --quality low --dense 1"
+                           " --SequentialMatching.overlap 3",
+                       &output),
+            0)
+      << output;
+  EXPECT_NE(output.find("sequential (overlap 3"), std::string::npos) << output;
+  const std::string dense_line = "WARNING: Skipping dense reconstruction";
+  const size_t dense_at = output.find(dense_line);
+  EXPECT_NE(dense_at, std::string::npos) << output;
+  EXPECT_EQ(output.find(dense_line, dense_at + 1), std::string::npos);
+  EXPECT_FALSE(fs::exists(workspace + "/dense"));
+
+  // Only neighbours in name order were matched: 1, 2 and 3 apart, and 4
+  // (3.8's quadratic overlap, on by default, adds 1, 2, 4, ... 2^(overlap-1)
+  // apart); never all 55 pairs as the exhaustive matcher would.
+  colmap::Database database(workspace + "/database.db");
+  std::map<colmap::image_t, int> position;
+  std::vector<colmap::Image> db_images = database.ReadAllImages();
+  std::sort(db_images.begin(), db_images.end(),
+            [](const colmap::Image& a, const colmap::Image& b) {
+              return a.Name() < b.Name();
+            });
+  ASSERT_EQ(static_cast<int>(db_images.size()), kNumImages);
+  for (size_t i = 0; i < db_images.size(); ++i) {
+    position[db_images[i].ImageId()] = static_cast<int>(i);
+  }
+  const std::vector<std::pair<colmap::image_pair_t, colmap::FeatureMatches>>
+      matches = database.ReadAllMatches();
+  EXPECT_GT(matches.size(), 0u);
+  EXPECT_LT(matches.size(),
+            static_cast<size_t>(kNumImages * (kNumImages - 1) / 2));
+  for (const auto& [pair_id, pair_matches] : matches) {
+    colmap::image_t image_id1 = 0;
+    colmap::image_t image_id2 = 0;
+    colmap::Database::PairIdToImagePair(pair_id, &image_id1, &image_id2);
+    EXPECT_LE(std::abs(position.at(image_id1) - position.at(image_id2)), 4)
+        << database.ReadImage(image_id1).Name() << " - "
+        << database.ReadImage(image_id2).Name();
+  }
+
+  colmap::Reconstruction model;
+  ASSERT_TRUE(ReadModel(workspace + "/sparse/0", &model).ok()) << output;
+  EXPECT_EQ(static_cast<int>(model.NumRegImages()), kNumImages);
 }
 
 struct EndToEndCase {

@@ -5,7 +5,9 @@
 #include <Eigen/Geometry>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "base/database.h"
@@ -29,6 +31,11 @@ struct SceneSpec {
   int config = TwoViewGeometry::CALIBRATED;
   // Points on the plane n^T X = d (camera 1 frame) when set.
   bool planar = false;
+  // Stores the pair's F (in pixels, from the camera's calibration matrix and
+  // the motion below) as a database's two-view geometry gives it.
+  bool store_fundamental = false;
+  // The motion whose F is stored, when it is not the true one.
+  std::optional<std::pair<Eigen::Matrix3d, Eigen::Vector3d>> stored_motion;
 };
 
 struct TruePair {
@@ -108,6 +115,13 @@ TruePair AddTwoViewScene(const SceneSpec& spec, colmap::camera_t camera_id,
              K.inverse();
   } else if (spec.t.norm() == 0) {
     pair.H = K * spec.R * K.inverse();
+  }
+  if (spec.store_fundamental) {
+    const auto& [R, t] =
+        spec.stored_motion.value_or(std::make_pair(spec.R, spec.t));
+    Eigen::Matrix3d t_cross;
+    t_cross << 0, -t(2), t(1), t(2), 0, -t(0), -t(1), t(0), 0;
+    pair.F = K.inverse().transpose() * t_cross * R * K.inverse();
   }
   for (size_t i = 0; i < keypoints1.size(); ++i) {
     pair.matches.emplace_back(i, i);
@@ -205,12 +219,16 @@ TEST(RelativePose, CalibratedPairsWithOutliers) {
   for (int i = 0; i < 6; ++i) {
     truths.push_back(scenes.Add(RandomMotion(20, &scenes.rng)));
   }
-  size_t num_invalidated = 99;
+  RelativePoseStatistics statistics;
+  statistics.num_invalidated_pairs = 99;
   const Status status =
       EstimateRelativePoses(RelativePoseOptions(), scenes.reconstruction,
-                            &scenes.view_graph, &num_invalidated);
+                            &scenes.view_graph, &statistics);
   ASSERT_TRUE(status.ok()) << status.message();
-  EXPECT_EQ(num_invalidated, 0);
+  EXPECT_EQ(statistics.num_invalidated_pairs, 0);
+  // These pairs have no stored F: every pose came from a RANSAC.
+  EXPECT_EQ(statistics.num_from_ransac, 6);
+  EXPECT_EQ(statistics.num_from_stored_geometry, 0);
   ExpectAccuratePairs(scenes.view_graph, truths);
 }
 
@@ -248,16 +266,16 @@ TEST(RelativePose, InvalidatesPairsWithTooFewInliers) {
   const TruePair all_outliers = scenes.Add(garbage);
   const TruePair good = scenes.Add(normal);
 
-  size_t num_invalidated = 0;
+  RelativePoseStatistics statistics;
   ASSERT_TRUE(EstimateRelativePoses(RelativePoseOptions(),
                                     scenes.reconstruction, &view_graph,
-                                    &num_invalidated)
+                                    &statistics)
                   .ok());
   EXPECT_FALSE(view_graph.Pairs().at(too_few.pair_id).is_valid);
   EXPECT_FALSE(view_graph.Pairs().at(low_ratio.pair_id).is_valid);
   EXPECT_FALSE(view_graph.Pairs().at(all_outliers.pair_id).is_valid);
   EXPECT_TRUE(view_graph.Pairs().at(good.pair_id).is_valid);
-  EXPECT_EQ(num_invalidated, 3);
+  EXPECT_EQ(statistics.num_invalidated_pairs, 3);
   // Invalid pairs keep no inlier indices (the low-ratio pair had plenty);
   // valid ones hold theirs without spare capacity.
   for (const colmap::image_pair_t pair_id :
@@ -351,6 +369,75 @@ TEST(RelativePose, PureRotationAndPlanarPairsDoNotCrash) {
   EXPECT_GT(ScoreInliers(planar_pair, planar).recall, 0.95);
 }
 
+// With the database's F stored, the poses come from it (no RANSAC), as
+// accurate as the RANSAC's: calibrated pinhole pairs, and distorted pairs
+// whose F (as 3.8's matcher fits it in distorted pixels) ignores the
+// distortion; the refinement on normalised coordinates removes that bias.
+TEST(RelativePose, StoredGeometryGivesThePosesWithoutRansac) {
+  for (const std::string camera_model : {"PINHOLE", "SIMPLE_RADIAL"}) {
+    SCOPED_TRACE(camera_model);
+    TwoViewScenes scenes(/*seed=*/7, camera_model);
+    std::vector<TruePair> truths;
+    for (int i = 0; i < 8; ++i) {
+      SceneSpec spec = RandomMotion(20, &scenes.rng);
+      spec.store_fundamental = true;
+      if (camera_model == "SIMPLE_RADIAL") {
+        spec.config = TwoViewGeometry::UNCALIBRATED;
+        spec.noise_px = 0.8;
+      }
+      truths.push_back(scenes.Add(spec));
+    }
+    for (const bool use_stored_geometry : {true, false}) {
+      SCOPED_TRACE(use_stored_geometry);
+      ViewGraph view_graph = scenes.view_graph;
+      RelativePoseOptions options;
+      options.use_stored_geometry = use_stored_geometry;
+      RelativePoseStatistics statistics;
+      ASSERT_TRUE(EstimateRelativePoses(options, scenes.reconstruction,
+                                        &view_graph, &statistics)
+                      .ok());
+      EXPECT_EQ(statistics.num_invalidated_pairs, 0);
+      EXPECT_EQ(statistics.num_from_stored_geometry,
+                use_stored_geometry ? truths.size() : 0);
+      EXPECT_EQ(statistics.num_from_ransac,
+                use_stored_geometry ? 0 : truths.size());
+      ExpectAccuratePairs(view_graph, truths);
+    }
+  }
+}
+
+// A stored F that does not fit the matches (another motion: a database
+// edited by hand, or a pair verified with another camera) is not trusted:
+// that pair's pose comes from a RANSAC and is right; a stored F of a planar
+// pair is never used.
+TEST(RelativePose, StoredGeometryThatDoesNotFitFallsBackToRansac) {
+  TwoViewScenes scenes(/*seed=*/8, "PINHOLE");
+  std::vector<TruePair> truths;
+  SceneSpec wrong = RandomMotion(20, &scenes.rng);
+  wrong.store_fundamental = true;
+  wrong.stored_motion = std::make_pair(RandomRotation(30, &scenes.rng),
+                                       RandomUnitVector(&scenes.rng));
+  truths.push_back(scenes.Add(wrong));
+  SceneSpec right = RandomMotion(20, &scenes.rng);
+  right.store_fundamental = true;
+  truths.push_back(scenes.Add(right));
+  SceneSpec plane;
+  plane.R = RandomRotation(15, &scenes.rng);
+  plane.t = Eigen::Vector3d(1, 0.1, 0.2);
+  plane.planar = true;
+  plane.config = TwoViewGeometry::PLANAR;
+  plane.store_fundamental = true;
+  truths.push_back(scenes.Add(plane));
+  RelativePoseStatistics statistics;
+  ASSERT_TRUE(EstimateRelativePoses(RelativePoseOptions(),
+                                    scenes.reconstruction, &scenes.view_graph,
+                                    &statistics)
+                  .ok());
+  EXPECT_EQ(statistics.num_from_stored_geometry, 1);
+  EXPECT_EQ(statistics.num_from_ransac, 2);
+  ExpectAccuratePairs(scenes.view_graph, truths);
+}
+
 // Throughput on verified matches (10% outliers), as in a real database:
 // prints pairs per second, asserts only a generous bound.
 TEST(RelativePose, Throughput) {
@@ -360,19 +447,27 @@ TEST(RelativePose, Throughput) {
     SceneSpec spec = RandomMotion(20, &scenes.rng);
     spec.num_matches = 1000;
     spec.outlier_ratio = 0.1;
+    spec.store_fundamental = true;
     scenes.Add(spec);
   }
-  const auto start = std::chrono::steady_clock::now();
-  ASSERT_TRUE(EstimateRelativePoses(RelativePoseOptions(),
-                                    scenes.reconstruction, &scenes.view_graph)
-                  .ok());
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-          .count();
-  std::cout << kNumPairs << " pairs x 1000 matches in " << seconds << " s ("
-            << kNumPairs / seconds << " pairs/s)" << std::endl;
-  EXPECT_EQ(scenes.view_graph.NumValidPairs(), kNumPairs);
-  EXPECT_LT(seconds, 60);
+  for (const bool use_stored_geometry : {true, false}) {
+    ViewGraph view_graph = scenes.view_graph;
+    RelativePoseOptions options;
+    options.use_stored_geometry = use_stored_geometry;
+    const auto start = std::chrono::steady_clock::now();
+    ASSERT_TRUE(
+        EstimateRelativePoses(options, scenes.reconstruction, &view_graph)
+            .ok());
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+            .count();
+    std::cout << kNumPairs << " pairs x 1000 matches in " << seconds << " s ("
+              << kNumPairs / seconds << " pairs/s), "
+              << (use_stored_geometry ? "from the stored F" : "RANSAC")
+              << std::endl;
+    EXPECT_EQ(view_graph.NumValidPairs(), kNumPairs);
+    EXPECT_LT(seconds, 60);
+  }
 }
 
 }  // namespace

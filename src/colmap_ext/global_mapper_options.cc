@@ -164,6 +164,9 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
 
   b.Group("Relative poses");
   auto& rp = o->relative_pose;
+  b.Add("rp_use_stored_geometry", &rp.use_stored_geometry,
+        "Start each pair from the database's two-view geometry (RANSAC only "
+        "where it fails or is missing)");
   b.Add("rp_max_epipolar_error_px", &rp.max_epipolar_error_px,
         "RANSAC threshold of the essential matrix [px]");
   b.Add("rp_max_num_trials", &rp.max_num_trials, "Maximum RANSAC trials");

@@ -623,10 +623,9 @@ Status GlobalMapper::Run(const std::string& database_path,
   // 3. Relative poses, inlier re-scoring, largest connected component.
   {
     StageTimer stage("Relative poses", 2, &summary_, callbacks);
-    size_t num_invalidated = 0;
-    const Status status =
-        EstimateRelativePoses(options_.relative_pose, *work, &view_graph,
-                              &num_invalidated, interrupt);
+    RelativePoseStatistics statistics;
+    const Status status = EstimateRelativePoses(
+        options_.relative_pose, *work, &view_graph, &statistics, interrupt);
     if (!status.ok()) return status;
     const std::vector<colmap::image_t> component =
         view_graph.LargestConnectedComponent();
@@ -650,9 +649,12 @@ Status GlobalMapper::Run(const std::string& database_path,
     }
     view_graph.InvalidatePairsOutside(std::unordered_set<colmap::image_t>(
         component.begin(), component.end()));
-    stage.Finish(Counts({{"pairs_rejected", num_invalidated},
-                         {"pairs_kept", view_graph.NumValidPairs()},
-                         {"images_connected", num_connected_images}}));
+    stage.Finish(
+        Counts({{"pairs_rejected", statistics.num_invalidated_pairs},
+                {"from_stored_geometry", statistics.num_from_stored_geometry},
+                {"from_ransac", statistics.num_from_ransac},
+                {"pairs_kept", view_graph.NumValidPairs()},
+                {"images_connected", num_connected_images}}));
   }
   if (interrupt.IsStopped()) return Status::Cancelled();
 

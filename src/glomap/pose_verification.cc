@@ -583,7 +583,7 @@ Status VerifyPoses(const PoseVerificationOptions& options,
     for (size_t k = 0; k < checks.size(); ++k) {
       const PoseVerificationResult& r = checks[k].result;
       fails[k] = !passes(r);
-      VLOG(2) << "Pose verification round " << round << ": image "
+      VLOG(3) << "Pose verification round " << round << ": image "
               << reconstruction->Image(r.image_id).Name() << ": "
               << r.num_current_inliers << " of " << r.num_correspondences
               << " inliers (score " << r.current_score << "), estimate "

@@ -1,9 +1,8 @@
 #include "glomap/relative_pose.h"
 
-#include <ceres/ceres.h>
-#include <ceres/rotation.h>
-
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -12,7 +11,6 @@
 #include <utility>
 #include <vector>
 
-#include "base/cost_functions.h"
 #include "base/essential_matrix.h"
 #include "base/pose.h"
 #include "estimators/essential_matrix.h"
@@ -26,46 +24,6 @@ namespace glomap {
 namespace {
 
 using TwoViewGeometry = colmap::TwoViewGeometry;
-
-// Sampson distance (not squared, unlike COLMAP's RelativePoseCostFunction,
-// whose squared residual would make the refinement minimise error^4) of one
-// correspondence in normalised image coordinates.
-struct SampsonErrorCost {
-  SampsonErrorCost(const Eigen::Vector2d& x1, const Eigen::Vector2d& x2)
-      : x1(x1), x2(x2) {}
-
-  template <typename T>
-  bool operator()(const T* const qvec, const T* const tvec, T* residual) const {
-    Eigen::Matrix<T, 3, 3, Eigen::RowMajor> R;
-    ceres::QuaternionToRotation(qvec, R.data());
-    Eigen::Matrix<T, 3, 3> t_cross;
-    t_cross << T(0), -tvec[2], tvec[1], tvec[2], T(0), -tvec[0], -tvec[1],
-        tvec[0], T(0);
-    const Eigen::Matrix<T, 3, 3> E = t_cross * R;
-    const Eigen::Matrix<T, 3, 1> x1_h(T(x1(0)), T(x1(1)), T(1));
-    const Eigen::Matrix<T, 3, 1> x2_h(T(x2(0)), T(x2(1)), T(1));
-    const Eigen::Matrix<T, 3, 1> Ex1 = E * x1_h;
-    const Eigen::Matrix<T, 3, 1> Etx2 = E.transpose() * x2_h;
-    const T x2tEx1 = x2_h.dot(Ex1);
-    // The tiny constant keeps the square root differentiable when a point
-    // lies on the epipole (a numerical guard, far below any residual that
-    // matters, so not an option).
-    const T denominator =
-        ceres::sqrt(Ex1(0) * Ex1(0) + Ex1(1) * Ex1(1) + Etx2(0) * Etx2(0) +
-                    Etx2(1) * Etx2(1) + T(1e-20));
-    residual[0] = x2tEx1 / denominator;
-    return true;
-  }
-
-  static ceres::CostFunction* Create(const Eigen::Vector2d& x1,
-                                     const Eigen::Vector2d& x2) {
-    return new ceres::AutoDiffCostFunction<SampsonErrorCost, 1, 4, 3>(
-        new SampsonErrorCost(x1, x2));
-  }
-
-  const Eigen::Vector2d x1;
-  const Eigen::Vector2d x2;
-};
 
 Eigen::Matrix3d CrossProductMatrix(const Eigen::Vector3d& v) {
   Eigen::Matrix3d m;
@@ -166,141 +124,291 @@ struct PairTask {
   const std::vector<Eigen::Vector2d>* normalized2 = nullptr;
 };
 
-// Refines cam2_from_cam1 on the RANSAC inliers (robust Sampson distance).
+// Sampson distance (not squared: a squared residual would make the
+// refinement minimise error^4) of one correspondence in normalised
+// coordinates, and its gradient with respect to the entries of E.
+double SampsonResidual(const Eigen::Matrix3d& E, const Eigen::Vector3d& x1,
+                       const Eigen::Vector3d& x2, Eigen::Matrix3d* dr_dE) {
+  const Eigen::Vector3d a = E * x1;
+  const Eigen::Vector3d b = E.transpose() * x2;
+  const double n = x2.dot(a);
+  // The tiny constant keeps the residual defined when a point lies on the
+  // epipole (a numerical guard far below any residual that matters).
+  const double d =
+      a(0) * a(0) + a(1) * a(1) + b(0) * b(0) + b(1) * b(1) + 1e-20;
+  const double inv_sqrt_d = 1.0 / std::sqrt(d);
+  const Eigen::Vector3d a_xy(a(0), a(1), 0);
+  const Eigen::Vector3d b_xy(b(0), b(1), 0);
+  // r = n / sqrt(d): dr = dn / sqrt(d) - n / (2 d^1.5) dd, with
+  // dn/dE = x2 x1^T and dd/dE = 2 (a_xy x1^T + x2 b_xy^T).
+  *dr_dE = (x2 * x1.transpose() -
+            (n / d) * (a_xy * x1.transpose() + x2 * b_xy.transpose())) *
+           inv_sqrt_d;
+  return n * inv_sqrt_d;
+}
+
+// Robust cost of the pose: the sum of Cauchy losses of the Sampson
+// distances, b log(1 + r^2 / b) with b = loss_scale^2.
+double RobustSampsonCost(const Eigen::Matrix3d& E,
+                         const std::vector<Eigen::Vector3d>& rays1,
+                         const std::vector<Eigen::Vector3d>& rays2,
+                         double squared_loss_scale) {
+  double cost = 0;
+  Eigen::Matrix3d unused;
+  for (size_t i = 0; i < rays1.size(); ++i) {
+    const double r = SampsonResidual(E, rays1[i], rays2[i], &unused);
+    cost += squared_loss_scale * std::log1p(r * r / squared_loss_scale);
+  }
+  return cost;
+}
+
+// Refines cam2_from_cam1 on the start's inliers: the robust (Cauchy,
+// `loss_scale`) Sampson distance minimised by Levenberg-Marquardt over the
+// pose's five degrees of freedom (rotation, translation direction), with
+// analytic derivatives and iteratively reweighted normal equations. Keeps
+// the start when the refinement does not lower the cost.
 void RefinePose(const RelativePoseOptions& options,
                 const std::vector<Eigen::Vector2d>& inliers1,
                 const std::vector<Eigen::Vector2d>& inliers2, double loss_scale,
                 Eigen::Vector4d* qvec, Eigen::Vector3d* tvec) {
-  Eigen::Vector4d refined_qvec = *qvec;
-  Eigen::Vector3d refined_tvec = *tvec;
-  ceres::Problem problem;
-  ceres::LossFunction* loss = new ceres::CauchyLoss(loss_scale);
   const size_t num_points =
       std::min<size_t>(inliers1.size(), options.max_num_refinement_points);
+  if (num_points == 0 || !(loss_scale > 0)) return;
+  std::vector<Eigen::Vector3d> rays1(num_points);
+  std::vector<Eigen::Vector3d> rays2(num_points);
   for (size_t k = 0; k < num_points; ++k) {
-    const size_t i = k * inliers1.size() / num_points;
-    problem.AddResidualBlock(SampsonErrorCost::Create(inliers1[i], inliers2[i]),
-                             loss, refined_qvec.data(), refined_tvec.data());
+    const size_t i = k * inliers1.size() / num_points;  // Evenly spread.
+    rays1[k] = inliers1[i].homogeneous();
+    rays2[k] = inliers2[i].homogeneous();
   }
-  colmap::SetQuaternionManifold(&problem, refined_qvec.data());
-  colmap::SetSphereManifold<3>(&problem, refined_tvec.data());
-  ceres::Solver::Options solver_options;
-  solver_options.max_num_iterations = options.max_num_refinement_iterations;
-  solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.num_threads = 1;  // Pairs already run in parallel.
-  solver_options.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
-  if (summary.IsSolutionUsable() && refined_qvec.allFinite() &&
-      refined_tvec.allFinite() && refined_tvec.norm() > 0) {
-    *qvec = colmap::NormalizeQuaternion(refined_qvec);
-    *tvec = refined_tvec.normalized();
+  const double b = loss_scale * loss_scale;
+  Eigen::Matrix3d R = colmap::QuaternionToRotationMatrix(*qvec);
+  Eigen::Vector3d t = tvec->normalized();
+  double cost = RobustSampsonCost(CrossProductMatrix(t) * R, rays1, rays2, b);
+  if (!std::isfinite(cost)) return;
+  // Relative decrease of the cost below which the refinement stops, and the
+  // damping's bounds (numerical settings of the solver, as Ceres' defaults).
+  constexpr double kFunctionTolerance = 1e-6;
+  constexpr double kMinLambda = 1e-12;
+  constexpr double kMaxLambda = 1e12;
+  double lambda = 1e-4;
+  for (int iteration = 0; iteration < options.max_num_refinement_iterations;
+       ++iteration) {
+    // E(dw, dt) = [t + B dt]x exp([dw]x) R: derivatives at zero.
+    Eigen::Vector3d helper = std::abs(t(0)) < 0.9 ? Eigen::Vector3d::UnitX()
+                                                  : Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d b1 = t.cross(helper).normalized();
+    const Eigen::Vector3d b2 = t.cross(b1);
+    const Eigen::Matrix3d t_cross = CrossProductMatrix(t);
+    std::array<Eigen::Matrix3d, 5> dE;
+    for (int k = 0; k < 3; ++k) {
+      dE[k] = t_cross * CrossProductMatrix(Eigen::Vector3d::Unit(k)) * R;
+    }
+    dE[3] = CrossProductMatrix(b1) * R;
+    dE[4] = CrossProductMatrix(b2) * R;
+    const Eigen::Matrix3d E = t_cross * R;
+
+    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
+    Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
+    Eigen::Matrix3d dr_dE;
+    for (size_t i = 0; i < num_points; ++i) {
+      const double r = SampsonResidual(E, rays1[i], rays2[i], &dr_dE);
+      Eigen::Matrix<double, 5, 1> J;
+      for (int k = 0; k < 5; ++k) J(k) = dr_dE.cwiseProduct(dE[k]).sum();
+      const double w = 1.0 / (1.0 + r * r / b);  // Cauchy IRLS weight.
+      H.noalias() += w * J * J.transpose();
+      g.noalias() += w * r * J;
+    }
+    bool improved = false;
+    while (lambda <= kMaxLambda) {
+      Eigen::Matrix<double, 5, 5> damped = H;
+      damped.diagonal() += lambda * (H.diagonal().array() + 1e-12).matrix();
+      const Eigen::Matrix<double, 5, 1> step = damped.ldlt().solve(-g);
+      if (!step.allFinite()) break;
+      const Eigen::Matrix3d new_R =
+          Eigen::AngleAxisd(step.head<3>().norm(),
+                            step.head<3>().norm() > 0
+                                ? Eigen::Vector3d(step.head<3>().normalized())
+                                : Eigen::Vector3d::UnitZ())
+              .toRotationMatrix() *
+          R;
+      const Eigen::Vector3d new_t =
+          (t + step(3) * b1 + step(4) * b2).normalized();
+      const double new_cost =
+          RobustSampsonCost(CrossProductMatrix(new_t) * new_R, rays1, rays2, b);
+      if (std::isfinite(new_cost) && new_cost < cost) {
+        const double decrease = (cost - new_cost) / cost;
+        R = new_R;
+        t = new_t;
+        cost = new_cost;
+        lambda = std::max(kMinLambda, lambda / 10);
+        improved = decrease > kFunctionTolerance;
+        break;
+      }
+      lambda *= 10;
+    }
+    if (!improved) break;
+  }
+  if (R.allFinite() && t.allFinite() && t.norm() > 0) {
+    *qvec = colmap::NormalizeQuaternion(colmap::RotationMatrixToQuaternion(R));
+    *tvec = t.normalized();
   }
 }
 
-// Estimates the pose and re-scores the matches of one pair; returns whether
-// the pair stays valid.
-bool ProcessPair(const RelativePoseOptions& options, const PairTask& task) {
-  ImagePair& pair = *task.pair;
-  pair.inlier_idxs.clear();
-  pair.has_relative_pose = false;
-
-  const int num_raw_matches = pair.num_raw_matches > 0
-                                  ? pair.num_raw_matches
-                                  : static_cast<int>(pair.matches.size());
-  if (static_cast<int>(pair.matches.size()) < options.min_num_inliers ||
-      pair.matches.size() <
-          static_cast<size_t>(
-              colmap::EssentialMatrixFivePointEstimator::kMinNumSamples)) {
-    return false;  // Can never reach the minimum inlier count.
-  }
-
-  const double focal1 = task.camera1->MeanFocalLength();
-  const double focal2 = task.camera2->MeanFocalLength();
-  if (!(focal1 > 0) || !(focal2 > 0) || !std::isfinite(focal1) ||
-      !std::isfinite(focal2)) {
-    return false;
-  }
-  // Pixel thresholds to normalised units (the reference's convention).
-  const double px_to_normalized = 0.5 * (1.0 / focal1 + 1.0 / focal2);
-
-  // Matches with keypoint indices out of range are never inliers.
-  std::vector<int> match_idxs;
+// The matches of one pair whose keypoints exist, as normalised coordinates.
+struct PairPoints {
+  std::vector<int> match_idxs;  // into ImagePair::matches
   std::vector<Eigen::Vector2d> points1;
   std::vector<Eigen::Vector2d> points2;
-  match_idxs.reserve(pair.matches.size());
-  points1.reserve(pair.matches.size());
-  points2.reserve(pair.matches.size());
+};
+
+PairPoints GatherPoints(const PairTask& task) {
+  const ImagePair& pair = *task.pair;
+  PairPoints points;
+  points.match_idxs.reserve(pair.matches.size());
+  points.points1.reserve(pair.matches.size());
+  points.points2.reserve(pair.matches.size());
   for (size_t i = 0; i < pair.matches.size(); ++i) {
     const colmap::FeatureMatch& match = pair.matches[i];
     if (match.point2D_idx1 >= task.normalized1->size() ||
         match.point2D_idx2 >= task.normalized2->size()) {
-      continue;
+      continue;  // Out of range: never an inlier.
     }
-    match_idxs.push_back(static_cast<int>(i));
-    points1.push_back((*task.normalized1)[match.point2D_idx1]);
-    points2.push_back((*task.normalized2)[match.point2D_idx2]);
+    points.match_idxs.push_back(static_cast<int>(i));
+    points.points1.push_back((*task.normalized1)[match.point2D_idx1]);
+    points.points2.push_back((*task.normalized2)[match.point2D_idx2]);
   }
-  if (static_cast<int>(points1.size()) < options.min_num_inliers ||
-      points1.size() <
-          static_cast<size_t>(
-              colmap::EssentialMatrixFivePointEstimator::kMinNumSamples)) {
+  return points;
+}
+
+// A start for the pose: an essential matrix and the points that agree with
+// it.
+struct EssentialStart {
+  Eigen::Matrix3d E;
+  std::vector<Eigen::Vector2d> inliers1;
+  std::vector<Eigen::Vector2d> inliers2;
+};
+
+bool IsPlanarOrPanoramic(int config) {
+  return config == TwoViewGeometry::PLANAR ||
+         config == TwoViewGeometry::PANORAMIC ||
+         config == TwoViewGeometry::PLANAR_OR_PANORAMIC;
+}
+
+// E = K2^T F K1 from the database's F and the current cameras, projected
+// onto the essential matrices (two equal singular values, one zero), with
+// the points within `max_error` (Sampson, normalised units) of it. False
+// when the pair has no usable F or fewer than `min_num_agreeing` points
+// agree: then the projection moved the epipolar geometry (the focal lengths
+// F implies are not the calibrated ones), and a pose decomposed from it is
+// no start to trust. On dino-363 (an object ring), starting such pairs from
+// all their matches instead kept wrong poses that passed re-scoring: rotation
+// averaging rejected twice the pairs, and one run lost the model.
+bool StartFromStoredGeometry(const ImagePair& pair,
+                             const colmap::Camera& camera1,
+                             const colmap::Camera& camera2,
+                             const PairPoints& points, double max_error,
+                             int min_num_agreeing, EssentialStart* start) {
+  if (IsPlanarOrPanoramic(pair.config) || !pair.F.allFinite() ||
+      !(pair.F.norm() > 0)) {
     return false;
   }
+  const Eigen::Matrix3d E_raw = camera2.CalibrationMatrix().transpose() *
+                                pair.F * camera1.CalibrationMatrix();
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(
+      E_raw, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::Vector3d singular_values = svd.singularValues();
+  const double mean = 0.5 * (singular_values(0) + singular_values(1));
+  if (!(mean > 0) || !std::isfinite(mean)) {
+    return false;
+  }
+  start->E = svd.matrixU() * Eigen::Vector3d(1, 1, 0).asDiagonal() *
+             svd.matrixV().transpose();
+  const double max_squared_error = max_error * max_error;
+  start->inliers1.clear();
+  start->inliers2.clear();
+  for (size_t i = 0; i < points.points1.size(); ++i) {
+    if (SquaredSampsonError(start->E, points.points1[i].homogeneous(),
+                            points.points2[i].homogeneous()) <=
+        max_squared_error) {
+      start->inliers1.push_back(points.points1[i]);
+      start->inliers2.push_back(points.points2[i]);
+    }
+  }
+  return static_cast<int>(start->inliers1.size()) >= min_num_agreeing;
+}
 
+// LO-RANSAC with the five-point solver on the points; its inliers.
+bool StartFromRansac(const RelativePoseOptions& options,
+                     colmap::image_pair_t pair_id, const PairPoints& points,
+                     double max_error, EssentialStart* start) {
   // COLMAP's RANSAC samples from a thread-local PRNG; seeding it per pair
   // makes the result independent of which thread runs the pair.
-  const uint64_t pair_id = task.pair_id;
   colmap::SetPRNGSeed(static_cast<unsigned>(options.random_seed) ^
                       static_cast<unsigned>(pair_id ^ (pair_id >> 32)));
-
   colmap::RANSACOptions ransac_options;
-  ransac_options.max_error = options.max_epipolar_error_px * px_to_normalized;
+  ransac_options.max_error = max_error;
   ransac_options.confidence = options.confidence;
   ransac_options.min_num_trials = options.min_num_trials;
   ransac_options.max_num_trials = options.max_num_trials;
   colmap::LORANSAC<colmap::EssentialMatrixFivePointEstimator,
                    colmap::EssentialMatrixFivePointEstimator>
       ransac(ransac_options);
-  const auto report = ransac.Estimate(points1, points2);
+  const auto report = ransac.Estimate(points.points1, points.points2);
   if (!report.success || !report.model.allFinite()) {
     return false;
   }
-
-  std::vector<Eigen::Vector2d> inliers1;
-  std::vector<Eigen::Vector2d> inliers2;
-  inliers1.reserve(report.support.num_inliers);
-  inliers2.reserve(report.support.num_inliers);
-  for (size_t i = 0; i < points1.size(); ++i) {
+  start->E = report.model;
+  start->inliers1.clear();
+  start->inliers2.clear();
+  start->inliers1.reserve(report.support.num_inliers);
+  start->inliers2.reserve(report.support.num_inliers);
+  for (size_t i = 0; i < points.points1.size(); ++i) {
     if (report.inlier_mask[i]) {
-      inliers1.push_back(points1[i]);
-      inliers2.push_back(points2[i]);
+      start->inliers1.push_back(points.points1[i]);
+      start->inliers2.push_back(points.points2[i]);
     }
   }
+  return true;
+}
+
+// cam2_from_cam1 from the start: the decomposition with its inliers in front
+// of both cameras, refined on them (unit translation).
+bool PoseFromStart(const RelativePoseOptions& options,
+                   const EssentialStart& start, double loss_scale,
+                   Eigen::Vector4d* qvec, Eigen::Vector3d* tvec) {
   Eigen::Matrix3d R;
   Eigen::Vector3d t;
-  if (!PoseFromEssentialMatrixFast(report.model, inliers1, inliers2, &R, &t) ||
+  if (!PoseFromEssentialMatrixFast(start.E, start.inliers1, start.inliers2, &R,
+                                   &t) ||
       !(t.norm() > 0)) {
     return false;
   }
-  Eigen::Vector4d qvec = colmap::RotationMatrixToQuaternion(R);
-  Eigen::Vector3d tvec = t.normalized();
-  RefinePose(options, inliers1, inliers2, ransac_options.max_error, &qvec,
-             &tvec);
-  R = colmap::QuaternionToRotationMatrix(qvec);
+  *qvec = colmap::RotationMatrixToQuaternion(R);
+  *tvec = t.normalized();
+  RefinePose(options, start.inliers1, start.inliers2, loss_scale, qvec, tvec);
+  return true;
+}
 
-  // Re-scoring. UNCALIBRATED pairs are judged by the same pose-consistent
-  // epipolar test as CALIBRATED ones: after view-graph calibration their
-  // focals are known, and the inliers must agree with the pose that rotation
-  // averaging and positioning will use, not with the database F. Their
-  // threshold is the looser F one because the calibrated focals are only
-  // estimates. Planar and panoramic pairs keep the database homography test:
-  // for (near) pure rotation the translation, and hence E, is meaningless.
-  const bool use_homography =
-      (pair.config == TwoViewGeometry::PLANAR ||
-       pair.config == TwoViewGeometry::PANORAMIC ||
-       pair.config == TwoViewGeometry::PLANAR_OR_PANORAMIC) &&
-      pair.H.allFinite() && pair.H.norm() > 0;
+// Re-scores the pair's matches against the pose (writes the pose,
+// has_relative_pose and inlier_idxs); returns whether the inliers pass the
+// count and ratio checks.
+//
+// UNCALIBRATED pairs are judged by the same pose-consistent epipolar test as
+// CALIBRATED ones: after view-graph calibration their focals are known, and
+// the inliers must agree with the pose that rotation averaging and
+// positioning will use, not with the database F. Their threshold is the
+// looser F one because the calibrated focals are only estimates. Planar and
+// panoramic pairs keep the database homography test: for (near) pure
+// rotation the translation, and hence E, is meaningless.
+bool RescoreMatches(const RelativePoseOptions& options, const PairTask& task,
+                    const PairPoints& points, double px_to_normalized,
+                    const Eigen::Vector4d& qvec, const Eigen::Vector3d& tvec) {
+  ImagePair& pair = *task.pair;
+  pair.inlier_idxs.clear();
+  const Eigen::Matrix3d R = colmap::QuaternionToRotationMatrix(qvec);
+  const bool use_homography = IsPlanarOrPanoramic(pair.config) &&
+                              pair.H.allFinite() && pair.H.norm() > 0;
   const double epipolar_threshold_px =
       pair.config == TwoViewGeometry::CALIBRATED
           ? options.max_epipolar_error_E_px
@@ -318,11 +426,11 @@ bool ProcessPair(const RelativePoseOptions& options, const PairTask& task) {
   const Eigen::Vector3d center2_in_cam1 = -R.transpose() * tvec;
   const Eigen::Vector3d center1_in_cam2 = tvec;
 
-  for (size_t k = 0; k < match_idxs.size(); ++k) {
-    const Eigen::Vector3d ray1 = points1[k].homogeneous();
-    const Eigen::Vector3d ray2 = points2[k].homogeneous();
+  for (size_t k = 0; k < points.match_idxs.size(); ++k) {
+    const Eigen::Vector3d ray1 = points.points1[k].homogeneous();
+    const Eigen::Vector3d ray2 = points.points2[k].homogeneous();
     if (use_homography) {
-      const colmap::FeatureMatch& match = pair.matches[match_idxs[k]];
+      const colmap::FeatureMatch& match = pair.matches[points.match_idxs[k]];
       const Eigen::Vector3d x1 =
           task.image1->Point2D(match.point2D_idx1).XY().homogeneous();
       const Eigen::Vector2d& x2 = task.image2->Point2D(match.point2D_idx2).XY();
@@ -331,7 +439,7 @@ bool ProcessPair(const RelativePoseOptions& options, const PairTask& task) {
           !((Hx1.hnormalized() - x2).squaredNorm() <= max_squared_transfer)) {
         continue;
       }
-      pair.inlier_idxs.push_back(match_idxs[k]);
+      pair.inlier_idxs.push_back(points.match_idxs[k]);
       continue;
     }
     if (std::abs(ray1.normalized().dot(center2_in_cam1)) > max_epipole_cos ||
@@ -351,7 +459,7 @@ bool ProcessPair(const RelativePoseOptions& options, const PairTask& task) {
         (!(depth1 > 0) || !(depth2 > 0))) {
       continue;
     }
-    pair.inlier_idxs.push_back(match_idxs[k]);
+    pair.inlier_idxs.push_back(points.match_idxs[k]);
   }
 
   pair.inlier_idxs.shrink_to_fit();
@@ -359,9 +467,71 @@ bool ProcessPair(const RelativePoseOptions& options, const PairTask& task) {
   pair.tvec2_from_1 = tvec;
   pair.has_relative_pose = true;
 
+  const int num_raw_matches = pair.num_raw_matches > 0
+                                  ? pair.num_raw_matches
+                                  : static_cast<int>(pair.matches.size());
   const int num_inliers = static_cast<int>(pair.inlier_idxs.size());
   return num_inliers >= options.min_num_inliers &&
          num_inliers >= options.min_inlier_ratio * num_raw_matches;
+}
+
+// Where a pair's pose came from; kNone: the pair is invalid.
+enum class PoseSource { kNone, kStoredGeometry, kRansac };
+
+// Estimates the pose and re-scores the matches of one pair: from the stored
+// geometry when it is used and holds, else from a RANSAC.
+PoseSource ProcessPair(const RelativePoseOptions& options,
+                       const PairTask& task) {
+  ImagePair& pair = *task.pair;
+  pair.inlier_idxs.clear();
+  pair.has_relative_pose = false;
+  const size_t min_num_points = std::max<size_t>(
+      std::max(options.min_num_inliers, 0),
+      colmap::EssentialMatrixFivePointEstimator::kMinNumSamples);
+  if (pair.matches.size() < min_num_points) {
+    return PoseSource::kNone;  // Can never reach the minimum inlier count.
+  }
+  const double focal1 = task.camera1->MeanFocalLength();
+  const double focal2 = task.camera2->MeanFocalLength();
+  if (!(focal1 > 0) || !(focal2 > 0) || !std::isfinite(focal1) ||
+      !std::isfinite(focal2)) {
+    return PoseSource::kNone;
+  }
+  // Pixel thresholds to normalised units (the reference's convention).
+  const double px_to_normalized = 0.5 * (1.0 / focal1 + 1.0 / focal2);
+  const double max_error = options.max_epipolar_error_px * px_to_normalized;
+  const PairPoints points = GatherPoints(task);
+  if (points.points1.size() < min_num_points) {
+    return PoseSource::kNone;
+  }
+
+  EssentialStart start;
+  Eigen::Vector4d qvec;
+  Eigen::Vector3d tvec;
+  // The start must already pass the pair's inlier checks at the RANSAC
+  // threshold.
+  const int num_raw_matches = pair.num_raw_matches > 0
+                                  ? pair.num_raw_matches
+                                  : static_cast<int>(pair.matches.size());
+  const int min_num_agreeing = std::max<int>(
+      static_cast<int>(min_num_points),
+      static_cast<int>(std::ceil(options.min_inlier_ratio * num_raw_matches)));
+  if (options.use_stored_geometry &&
+      StartFromStoredGeometry(pair, *task.camera1, *task.camera2, points,
+                              max_error, min_num_agreeing, &start) &&
+      PoseFromStart(options, start, max_error, &qvec, &tvec) &&
+      RescoreMatches(options, task, points, px_to_normalized, qvec, tvec)) {
+    return PoseSource::kStoredGeometry;
+  }
+  pair.inlier_idxs.clear();
+  pair.has_relative_pose = false;
+  if (!StartFromRansac(options, task.pair_id, points, max_error, &start) ||
+      !PoseFromStart(options, start, max_error, &qvec, &tvec)) {
+    return PoseSource::kNone;
+  }
+  return RescoreMatches(options, task, points, px_to_normalized, qvec, tvec)
+             ? PoseSource::kRansac
+             : PoseSource::kNone;
 }
 
 }  // namespace
@@ -392,10 +562,10 @@ Status RelativePoseOptions::Check(const std::string& prefix) const {
 Status EstimateRelativePoses(const RelativePoseOptions& options,
                              const colmap::Reconstruction& reconstruction,
                              ViewGraph* view_graph,
-                             size_t* num_invalidated_pairs,
+                             RelativePoseStatistics* statistics,
                              const Interrupt& interrupt) {
-  if (num_invalidated_pairs != nullptr) {
-    *num_invalidated_pairs = 0;
+  if (statistics != nullptr) {
+    *statistics = RelativePoseStatistics();
   }
   if (const Status check = options.Check(); !check.ok()) {
     return Status::Error("Invalid relative pose options: " + check.message());
@@ -457,22 +627,28 @@ Status EstimateRelativePoses(const RelativePoseOptions& options,
   });
 
   // A stop skips the remaining pairs.
-  std::vector<char> keep(tasks.size(), 0);
+  std::vector<PoseSource> sources(tasks.size(), PoseSource::kNone);
   ParallelFor(options.num_threads, tasks.size(), [&](size_t i) {
-    if (!interrupt.IsStopped()) keep[i] = ProcessPair(options, tasks[i]);
+    if (!interrupt.IsStopped()) sources[i] = ProcessPair(options, tasks[i]);
   });
   if (interrupt.IsStopped()) return Status::Cancelled();
 
+  RelativePoseStatistics counts;
   for (size_t i = 0; i < tasks.size(); ++i) {
-    if (!keep[i]) {
+    if (sources[i] == PoseSource::kStoredGeometry) {
+      ++counts.num_from_stored_geometry;
+    } else if (sources[i] == PoseSource::kRansac) {
+      ++counts.num_from_ransac;
+    } else {
       tasks[i].pair->is_valid = false;
       // No later stage reads the inliers of an invalid pair.
       std::vector<int>().swap(tasks[i].pair->inlier_idxs);
       ++num_invalidated;
     }
   }
-  if (num_invalidated_pairs != nullptr) {
-    *num_invalidated_pairs = num_invalidated;
+  counts.num_invalidated_pairs = num_invalidated;
+  if (statistics != nullptr) {
+    *statistics = counts;
   }
   return Status::Ok();
 }

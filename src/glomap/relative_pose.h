@@ -1,11 +1,12 @@
 // Relative poses of the view graph's pairs (paper Sec. 3, "Proposed
 // Pipeline": "With the updated camera intrinsics, relative camera poses are
-// estimated"). For every valid pair, an essential matrix is estimated from
-// the verified matches in normalised image coordinates (current camera
-// parameters, i.e. after view-graph calibration) with COLMAP 3.8's
-// LO-RANSAC + five-point solver, decomposed with cheirality, and refined on
-// its inliers. The matches are then re-scored against the pose (or the
-// pair's homography for planar/panoramic pairs) and pairs with too few
+// estimated"). For every valid pair, an essential matrix in normalised image
+// coordinates (current camera parameters, i.e. after view-graph calibration)
+// is taken from the database's two-view geometry (E = K2^T F K1) or, where
+// that cannot be used, estimated from the verified matches with COLMAP 3.8's
+// LO-RANSAC + five-point solver; it is decomposed with cheirality and the
+// pose refined on its inliers. The matches are then re-scored against the pose
+// (or the pair's homography for planar/panoramic pairs) and pairs with too few
 // inliers are invalidated.
 #pragma once
 
@@ -19,6 +20,17 @@
 namespace glomap {
 
 struct RelativePoseOptions {
+  // Start each pair from the database's two-view geometry instead of a
+  // RANSAC: E = K2^T F K1 with the current cameras, projected onto the
+  // essential matrices, decomposed and refined on the matches that agree
+  // with it within max_epipolar_error_px. The matches are the inliers of
+  // that F already, so where F agrees with the calibrated cameras a RANSAC
+  // on them finds it again. A RANSAC still runs for planar and panoramic
+  // pairs, pairs without F, pairs where fewer matches agree than the
+  // inlier checks below ask for (the projection moved the epipolar
+  // geometry: F implies other focal lengths), and pairs whose refined pose
+  // fails the re-scoring checks.
+  bool use_stored_geometry = true;
   // RANSAC inlier threshold on the Sampson error, pixels; converted to
   // normalised units by 0.5 * (1/f1 + 1/f2).
   double max_epipolar_error_px = 1.0;
@@ -65,18 +77,29 @@ struct RelativePoseOptions {
   Status Check(const std::string& prefix = "") const;
 };
 
+// What EstimateRelativePoses did with the valid pairs it was given.
+struct RelativePoseStatistics {
+  // Pairs it invalidated.
+  size_t num_invalidated_pairs = 0;
+  // Pairs whose pose came from the database's two-view geometry, and pairs
+  // whose pose came from a RANSAC (use_stored_geometry off, no usable stored
+  // geometry, or a failed start).
+  size_t num_from_stored_geometry = 0;
+  size_t num_from_ransac = 0;
+};
+
 // Estimates cam2_from_cam1 (unit translation) of every valid pair, writes
 // qvec2_from_1 / tvec2_from_1 / has_relative_pose and inlier_idxs, and
 // invalidates pairs whose estimation fails or whose re-scored inliers are too
-// few (count or ratio); their number goes to `num_invalidated_pairs` when not
-// null. Invalidated pairs keep no inlier indices (no later stage reads them).
-// Pairs whose images or cameras are missing from `reconstruction` are
-// invalidated too. Returns Cancelled when `interrupt` fires; the view graph
-// then holds some pairs' new poses and must not be used.
+// few (count or ratio); the counts go to `statistics` when not null.
+// Invalidated pairs keep no inlier indices (no later stage reads them). Pairs
+// whose images or cameras are missing from `reconstruction` are invalidated
+// too. Returns Cancelled when `interrupt` fires; the view graph then holds some
+// pairs' new poses and must not be used.
 Status EstimateRelativePoses(const RelativePoseOptions& options,
                              const colmap::Reconstruction& reconstruction,
                              ViewGraph* view_graph,
-                             size_t* num_invalidated_pairs = nullptr,
+                             RelativePoseStatistics* statistics = nullptr,
                              const Interrupt& interrupt = {});
 
 }  // namespace glomap

@@ -410,7 +410,7 @@ Status SolveRotations(const RotationAveragingOptions& options,
           std::min<int64_t>(2 * static_cast<int64_t>(max_inner),
                             options.l1_max_num_admm_iterations));
       const double mean_step = ApplyUpdate(update, rotations);
-      VLOG(1) << "Rotation averaging L1 iteration " << iteration
+      VLOG(3) << "Rotation averaging L1 iteration " << iteration
               << ": mean step " << mean_step * kRadToDeg << " deg, "
               << num_inner << " ADMM iterations";
       if (mean_step < options.l1_step_convergence_threshold_rad) break;
@@ -442,7 +442,7 @@ Status SolveRotations(const RotationAveragingOptions& options,
       return Status::Error("Rotation averaging: IRLS solve failed.");
     }
     const double mean_step = ApplyUpdate(update, rotations);
-    VLOG(1) << "Rotation averaging IRLS iteration " << iteration
+    VLOG(3) << "Rotation averaging IRLS iteration " << iteration
             << ": mean step " << mean_step * kRadToDeg << " deg";
     if (mean_step < options.irls_step_convergence_threshold_rad) break;
   }
@@ -604,7 +604,7 @@ Status AverageRotations(const RotationAveragingOptions& options,
       previous_by_id.emplace(component[i], rotations[i]);
     }
     num_rejected += num_rejected_in_round;
-    VLOG(1) << "Rotation averaging round " << round << ": " << component.size()
+    VLOG(3) << "Rotation averaging round " << round << ": " << component.size()
             << " images, " << problem.edges.size() << " pairs, "
             << num_rejected_in_round << " rejected";
   }

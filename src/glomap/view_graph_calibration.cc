@@ -633,7 +633,7 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
         mapper.FilterImages(mo);
         if (small.NumRegImages() >= 2 && small.NumPoints3D() > 0) {
           grow(&mapper, mo, small);
-          VLOG(1) << "View-graph calibration: small reconstruction of "
+          VLOG(3) << "View-graph calibration: small reconstruction of "
                   << small.NumRegImages() << " of " << image_ids.size()
                   << " images, " << small.NumPoints3D() << " points.";
           if (small.NumRegImages() > best_num_images) {
@@ -992,7 +992,7 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
       phi = 1.0;
       continue;
     }
-    VLOG(1) << "View-graph calibration: camera " << group << " ("
+    VLOG(3) << "View-graph calibration: camera " << group << " ("
             << members.at(group).size() << " identical) focal " << old_focal
             << " -> " << new_focal << " px";
     SetGroupFocal(members, group, new_focal, reconstruction);
