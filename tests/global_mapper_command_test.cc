@@ -123,6 +123,37 @@ TEST(GlobalMapperCommand, ReconstructsAndKeepsDatabaseUnchanged) {
   EXPECT_EQ(log.find("georegistered"), std::string::npos) << log;
 }
 
+// At COLMAP 3.8's default verbosity (2) a run prints its stage lines, and
+// neither Ceres' internals nor per-solve detail; --log_level 3 adds them.
+TEST(GlobalMapperCommand, DefaultLogIsOneLinePerStage) {
+  const Project project = MakeProject("command_log_level");
+  const std::vector<std::string> solver_internals = {
+      "trust_region_minimizer.cc", "block_sparse_matrix.cc",
+      "detect_structure.cc", "CHOLMOD"};
+  const std::vector<std::string> detail = {
+      "BA solve (", "Rotation averaging round", "Pose verification round"};
+  std::string log;
+  ASSERT_EQ(RunCommand(MapperCommand(project, project.dir + "/default"), &log),
+            0)
+      << log;
+  EXPECT_NE(log.find("Stage Bundle adjustment:"), std::string::npos) << log;
+  for (const auto* lines : {&solver_internals, &detail}) {
+    for (const std::string& line : *lines) {
+      EXPECT_EQ(log.find(line), std::string::npos) << line << "\n" << log;
+    }
+  }
+  const size_t num_default_lines = std::count(log.begin(), log.end(), '\n');
+  EXPECT_LT(num_default_lines, 60u) << log;
+  ASSERT_EQ(RunCommand(MapperCommand(project, project.dir + "/detailed") +
+                           " --log_level 3",
+                       &log),
+            0)
+      << log;
+  for (const std::string& line : detail) {
+    EXPECT_NE(log.find(line), std::string::npos) << line;
+  }
+}
+
 TEST(GlobalMapperCommand, StockColmapReadsOurModel) {
   const std::string stock = "/usr/bin/colmap";
   if (!fs::exists(stock)) {

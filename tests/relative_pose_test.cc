@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <optional>
@@ -403,6 +404,51 @@ TEST(RelativePose, StoredGeometryGivesThePosesWithoutRansac) {
                 use_stored_geometry ? 0 : truths.size());
       ExpectAccuratePairs(view_graph, truths);
     }
+  }
+}
+
+// A stored F that fits the matches only coarsely (as 3.8's matcher fits it,
+// at 4 px on raw matches): a part of the true inliers agrees with it at this
+// stage's 1 px; the pose still reaches all of them (the inliers are selected
+// again while the refinement gains them, as LO-RANSAC does) and the
+// RANSAC's accuracy.
+TEST(RelativePose, CoarseStoredGeometryReachesAllInliers) {
+  TwoViewScenes scenes(/*seed=*/9, "PINHOLE");
+  std::vector<TruePair> truths;
+  for (int i = 0; i < 8; ++i) {
+    SceneSpec spec = RandomMotion(20, &scenes.rng);
+    spec.noise_px = 0.5;
+    spec.store_fundamental = true;
+    const Eigen::Matrix3d R_off =
+        Eigen::AngleAxisd(0.06 * M_PI / 180, RandomUnitVector(&scenes.rng))
+            .toRotationMatrix();
+    spec.stored_motion = std::make_pair(R_off * spec.R, spec.t);
+    truths.push_back(scenes.Add(spec));
+  }
+  std::array<ViewGraph, 2> results = {scenes.view_graph, scenes.view_graph};
+  for (const bool use_stored_geometry : {true, false}) {
+    RelativePoseOptions options;
+    options.use_stored_geometry = use_stored_geometry;
+    RelativePoseStatistics statistics;
+    ASSERT_TRUE(EstimateRelativePoses(options, scenes.reconstruction,
+                                      &results[use_stored_geometry],
+                                      &statistics)
+                    .ok());
+    EXPECT_EQ(statistics.num_from_stored_geometry,
+              use_stored_geometry ? truths.size() : 0);
+  }
+  for (const TruePair& truth : truths) {
+    SCOPED_TRACE(truth.pair_id);
+    const ImagePair& stored = results[1].Pairs().at(truth.pair_id);
+    const ImagePair& ransac = results[0].Pairs().at(truth.pair_id);
+    ASSERT_TRUE(stored.is_valid);
+    EXPECT_LT(RotationErrorDeg(stored.qvec2_from_1, truth.R), 0.5);
+    EXPECT_LT(AngleDeg(stored.tvec2_from_1, truth.t), 1.0);
+    // 0.5 px noise puts a few true inliers beyond the 1 px threshold with
+    // any pose: the bar is the RANSAC's recall on the same matches.
+    EXPECT_GE(ScoreInliers(stored, truth).recall,
+              ScoreInliers(ransac, truth).recall - 0.01);
+    EXPECT_LT(ScoreInliers(stored, truth).outlier_accepted, 0.05);
   }
 }
 

@@ -661,7 +661,7 @@ Status Solve(const GlobalBundleAdjustmentOptions& options,
   // cost it reached, and where its time went (the linear solver factorizes
   // the reduced camera system; the evaluations are the residuals and
   // Jacobians of every observation).
-  LOG(INFO) << "BA solve (" << (fix_rotations ? "fixed rotations" : "joint")
+  VLOG(3) << "BA solve (" << (fix_rotations ? "fixed rotations" : "joint")
             << ", " << image_ids.size() << " images, "
             << problem.NumResidualBlocks() << " residual blocks, "
             << ceres::LinearSolverTypeToString(summary.linear_solver_type_used)
@@ -905,7 +905,7 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
       }
       ++level;
     }
-    LOG(INFO) << "Global BA round: " << num_fixed_rotation_iterations
+    VLOG(3) << "Global BA round: " << num_fixed_rotation_iterations
               << " fixed-rotation + " << num_joint_iterations
               << " joint iterations, " << num_changed_tracks << " / "
               << num_tracks << " tracks changed, "

@@ -147,11 +147,11 @@ void WarnIfDomeCanHide(const colmap::Reconstruction& model) {
   const NadirBlockShape shape = MeasureNadirBlock(model);
   const bool nadir = shape.view_spread_deg <= kNadirMaxViewSpreadDeg &&
                      shape.view_to_plane_normal_deg <= kNadirMaxViewToNormalDeg;
-  LOG(INFO) << "Block shape: viewing directions spread by " << std::fixed
-            << std::setprecision(1) << shape.view_spread_deg << " deg, "
-            << shape.view_to_plane_normal_deg
-            << " deg from the normal of the camera plane, width "
-            << shape.WidthOverHeight() << " x the height.";
+  VLOG(3) << "Block shape: viewing directions spread by " << std::fixed
+          << std::setprecision(1) << shape.view_spread_deg << " deg, "
+          << shape.view_to_plane_normal_deg
+          << " deg from the normal of the camera plane, width "
+          << shape.WidthOverHeight() << " x the height.";
   if (!nadir || shape.WidthOverHeight() < kDomeRiskWidthOverHeight) return;
   LOG(WARNING) << "The cameras look down on a block " << std::fixed
                << std::setprecision(1) << shape.WidthOverHeight()
@@ -525,6 +525,11 @@ Status GlobalMapper::Run(const std::string& database_path,
   // The libraries under the stages (CHOLMOD's OpenMP loops, OpenBLAS) start
   // no threads of their own: GlobalMapper.num_threads bounds every stage.
   const ScopedLibraryThreads library_threads;
+  // COLMAP 3.8 sets glog's verbosity to 2, at which Ceres prints its
+  // internals (allocation sizes, iteration tables, CHOLMOD's analysis) for
+  // every solve: hundreds of lines per run. Below --log_level 3 a run prints
+  // its stage lines, warnings and summary; at 3 and above, every detail.
+  if (FLAGS_v < 3) google::SetVLOGLevel("*", 0);
   summary_ = GlobalMapperSummary();
   georegistration_ = Georegistration();
   models->clear();

@@ -682,7 +682,7 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
     }
   }
 
-  LOG(INFO) << "Global positioning: " << num_problem_images << " images, "
+  VLOG(3) << "Global positioning: " << num_problem_images << " images, "
             << num_points << " points, " << observations.size()
             << " observations, " << summary.iterations.size() << " iterations ("
             << ceres::TerminationTypeToString(summary.termination_type)

@@ -227,7 +227,7 @@ Status InitializeCameraCenters(const PositionInitializationOptions& options,
     image.SetTvec(-(image.RotationMatrix() * centers[i]));
   }
   if (num_placed_images != nullptr) *num_placed_images = num_nodes;
-  LOG(INFO) << "Position initialization: " << num_nodes << " images, "
+  VLOG(3) << "Position initialization: " << num_nodes << " images, "
             << edges.size() << " pairs, " << roots.size() << " component(s); "
             << summary.iterations.size() << " iterations ("
             << ceres::TerminationTypeToString(summary.termination_type)

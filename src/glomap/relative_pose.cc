@@ -295,6 +295,23 @@ bool IsPlanarOrPanoramic(int config) {
          config == TwoViewGeometry::PLANAR_OR_PANORAMIC;
 }
 
+// The start's inliers: the points within `max_error` (Sampson, normalised
+// units) of its E.
+void SelectAgreeing(const PairPoints& points, double max_error,
+                    EssentialStart* start) {
+  const double max_squared_error = max_error * max_error;
+  start->inliers1.clear();
+  start->inliers2.clear();
+  for (size_t i = 0; i < points.points1.size(); ++i) {
+    if (SquaredSampsonError(start->E, points.points1[i].homogeneous(),
+                            points.points2[i].homogeneous()) <=
+        max_squared_error) {
+      start->inliers1.push_back(points.points1[i]);
+      start->inliers2.push_back(points.points2[i]);
+    }
+  }
+}
+
 // E = K2^T F K1 from the database's F and the current cameras, projected
 // onto the essential matrices (two equal singular values, one zero), with
 // the points within `max_error` (Sampson, normalised units) of it. False
@@ -324,17 +341,7 @@ bool StartFromStoredGeometry(const ImagePair& pair,
   }
   start->E = svd.matrixU() * Eigen::Vector3d(1, 1, 0).asDiagonal() *
              svd.matrixV().transpose();
-  const double max_squared_error = max_error * max_error;
-  start->inliers1.clear();
-  start->inliers2.clear();
-  for (size_t i = 0; i < points.points1.size(); ++i) {
-    if (SquaredSampsonError(start->E, points.points1[i].homogeneous(),
-                            points.points2[i].homogeneous()) <=
-        max_squared_error) {
-      start->inliers1.push_back(points.points1[i]);
-      start->inliers2.push_back(points.points2[i]);
-    }
-  }
+  SelectAgreeing(points, max_error, start);
   return static_cast<int>(start->inliers1.size()) >= min_num_agreeing;
 }
 
@@ -519,9 +526,25 @@ PoseSource ProcessPair(const RelativePoseOptions& options,
   if (options.use_stored_geometry &&
       StartFromStoredGeometry(pair, *task.camera1, *task.camera2, points,
                               max_error, min_num_agreeing, &start) &&
-      PoseFromStart(options, start, max_error, &qvec, &tvec) &&
-      RescoreMatches(options, task, points, px_to_normalized, qvec, tvec)) {
-    return PoseSource::kStoredGeometry;
+      PoseFromStart(options, start, max_error, &qvec, &tvec)) {
+    // The stored F fits the matches at the matcher's threshold (4 px in
+    // 3.8), coarser than this stage's, so the first inliers can be a biased
+    // part of the true ones. As LO-RANSAC's local optimisation does, the
+    // inliers are selected again under the refined pose and the pose refined
+    // on them while they grow.
+    constexpr int kMaxReselectionRounds = 10;
+    for (int round = 0; round < kMaxReselectionRounds; ++round) {
+      const size_t num_before = start.inliers1.size();
+      start.E =
+          CrossProductMatrix(tvec) * colmap::QuaternionToRotationMatrix(qvec);
+      SelectAgreeing(points, max_error, &start);
+      if (start.inliers1.size() <= num_before) break;
+      RefinePose(options, start.inliers1, start.inliers2, max_error, &qvec,
+                 &tvec);
+    }
+    if (RescoreMatches(options, task, points, px_to_normalized, qvec, tvec)) {
+      return PoseSource::kStoredGeometry;
+    }
   }
   pair.inlier_idxs.clear();
   pair.has_relative_pose = false;

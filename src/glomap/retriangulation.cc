@@ -306,7 +306,7 @@ Status Retriangulate(const RetriangulationOptions& options,
   // The correspondence graph and the triangulation's images are freed:
   // their pages go back to the system before bundle adjustment allocates.
   ReturnFreedMemory();
-  LOG(INFO) << "Retriangulation: " << triangulated.num_pairs << " pairs, "
+  VLOG(3) << "Retriangulation: " << triangulated.num_pairs << " pairs, "
             << triangulated.num_triangulated << " points triangulated, "
             << reconstruction->NumPoints3D() << " after refinement ("
             << num_old_points3D << " before), " << timer.ElapsedSeconds()
