@@ -279,6 +279,13 @@ class GlobalReconstructionGui : public ::testing::Test {
   // Starts a global run from the menu and waits until the status bar shows
   // `stage`; true if the run is still going then (the stage is reached
   // mid-run).
+  // The synthetic projects store their true two-view geometries, from which
+  // the relative poses of 100 images take a fifth of a second; RANSAC on
+  // every pair makes the stage last seconds, long enough to be seen running.
+  void RunRansacOnEveryPair() {
+    ui_->Options()->relative_pose.use_stored_geometry = false;
+  }
+
   bool RunUntilStage(const QString& stage) {
     ui_->RunAction()->trigger();
     if (!ui_->IsRunning()) return false;
@@ -576,6 +583,7 @@ TEST_F(GlobalReconstructionGui, RunsFromTheMenuOnFountain) {
 TEST_F(GlobalReconstructionGui, CancelStopsMidRunWithinASecond) {
   ASSERT_TRUE(WriteSyntheticProject("global_reconstruction_gui_cancel", 100));
   OpenProject();
+  RunRansacOnEveryPair();
   RecordMessages(/*answer_yes=*/false);
 
   for (const char* stage :
@@ -708,6 +716,7 @@ TEST_F(GlobalReconstructionGui, CancelAndCloseWhilePaused) {
   ASSERT_TRUE(
       WriteSyntheticProject("global_reconstruction_gui_pause_stop", 60));
   OpenProject();
+  RunRansacOnEveryPair();
   // "Do you really want to quit?" -> Yes; any other message is a failure.
   RecordMessages(/*answer_yes=*/true);
   // Starts a run and pauses it in its third stage.
@@ -755,6 +764,7 @@ TEST(GlobalReconstructionGuiDeathTest,
 TEST_F(GlobalReconstructionGui, ClosingTheWindowStopsTheRun) {
   ASSERT_TRUE(WriteSyntheticProject("global_reconstruction_gui_close", 60));
   OpenProject();
+  RunRansacOnEveryPair();
   // "Do you really want to quit?" -> Yes.
   RecordMessages(/*answer_yes=*/true);
 
