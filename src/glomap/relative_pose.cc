@@ -1,5 +1,8 @@
 #include "glomap/relative_pose.h"
 
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
@@ -11,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "base/cost_functions.h"
 #include "base/essential_matrix.h"
 #include "base/pose.h"
 #include "estimators/essential_matrix.h"
@@ -124,134 +128,75 @@ struct PairTask {
   const std::vector<Eigen::Vector2d>* normalized2 = nullptr;
 };
 
-// Sampson distance (not squared: a squared residual would make the
-// refinement minimise error^4) of one correspondence in normalised
-// coordinates, and its gradient with respect to the entries of E.
-double SampsonResidual(const Eigen::Matrix3d& E, const Eigen::Vector3d& x1,
-                       const Eigen::Vector3d& x2, Eigen::Matrix3d* dr_dE) {
-  const Eigen::Vector3d a = E * x1;
-  const Eigen::Vector3d b = E.transpose() * x2;
-  const double n = x2.dot(a);
-  // The tiny constant keeps the residual defined when a point lies on the
-  // epipole (a numerical guard far below any residual that matters).
-  const double d =
-      a(0) * a(0) + a(1) * a(1) + b(0) * b(0) + b(1) * b(1) + 1e-20;
-  const double inv_sqrt_d = 1.0 / std::sqrt(d);
-  const Eigen::Vector3d a_xy(a(0), a(1), 0);
-  const Eigen::Vector3d b_xy(b(0), b(1), 0);
-  // r = n / sqrt(d): dr = dn / sqrt(d) - n / (2 d^1.5) dd, with
-  // dn/dE = x2 x1^T and dd/dE = 2 (a_xy x1^T + x2 b_xy^T).
-  *dr_dE = (x2 * x1.transpose() -
-            (n / d) * (a_xy * x1.transpose() + x2 * b_xy.transpose())) *
-           inv_sqrt_d;
-  return n * inv_sqrt_d;
-}
+// Sampson distance (not squared, unlike COLMAP's RelativePoseCostFunction,
+// whose squared residual would make the refinement minimise error^4) of one
+// correspondence in normalised image coordinates.
+struct SampsonErrorCost {
+  SampsonErrorCost(const Eigen::Vector2d& x1, const Eigen::Vector2d& x2)
+      : x1(x1), x2(x2) {}
 
-// Robust cost of the pose: the sum of Cauchy losses of the Sampson
-// distances, b log(1 + r^2 / b) with b = loss_scale^2.
-double RobustSampsonCost(const Eigen::Matrix3d& E,
-                         const std::vector<Eigen::Vector3d>& rays1,
-                         const std::vector<Eigen::Vector3d>& rays2,
-                         double squared_loss_scale) {
-  double cost = 0;
-  Eigen::Matrix3d unused;
-  for (size_t i = 0; i < rays1.size(); ++i) {
-    const double r = SampsonResidual(E, rays1[i], rays2[i], &unused);
-    cost += squared_loss_scale * std::log1p(r * r / squared_loss_scale);
+  template <typename T>
+  bool operator()(const T* const qvec, const T* const tvec, T* residual) const {
+    Eigen::Matrix<T, 3, 3, Eigen::RowMajor> R;
+    ceres::QuaternionToRotation(qvec, R.data());
+    Eigen::Matrix<T, 3, 3> t_cross;
+    t_cross << T(0), -tvec[2], tvec[1], tvec[2], T(0), -tvec[0], -tvec[1],
+        tvec[0], T(0);
+    const Eigen::Matrix<T, 3, 3> E = t_cross * R;
+    const Eigen::Matrix<T, 3, 1> x1_h(T(x1(0)), T(x1(1)), T(1));
+    const Eigen::Matrix<T, 3, 1> x2_h(T(x2(0)), T(x2(1)), T(1));
+    const Eigen::Matrix<T, 3, 1> Ex1 = E * x1_h;
+    const Eigen::Matrix<T, 3, 1> Etx2 = E.transpose() * x2_h;
+    const T x2tEx1 = x2_h.dot(Ex1);
+    // The tiny constant keeps the square root differentiable when a point
+    // lies on the epipole (a numerical guard, far below any residual that
+    // matters, so not an option).
+    const T denominator =
+        ceres::sqrt(Ex1(0) * Ex1(0) + Ex1(1) * Ex1(1) + Etx2(0) * Etx2(0) +
+                    Etx2(1) * Etx2(1) + T(1e-20));
+    residual[0] = x2tEx1 / denominator;
+    return true;
   }
-  return cost;
-}
 
-// Refines cam2_from_cam1 on the start's inliers: the robust (Cauchy,
-// `loss_scale`) Sampson distance minimised by Levenberg-Marquardt over the
-// pose's five degrees of freedom (rotation, translation direction), with
-// analytic derivatives and iteratively reweighted normal equations. Keeps
-// the start when the refinement does not lower the cost.
+  static ceres::CostFunction* Create(const Eigen::Vector2d& x1,
+                                     const Eigen::Vector2d& x2) {
+    return new ceres::AutoDiffCostFunction<SampsonErrorCost, 1, 4, 3>(
+        new SampsonErrorCost(x1, x2));
+  }
+
+  const Eigen::Vector2d x1;
+  const Eigen::Vector2d x2;
+};
+
+// Refines cam2_from_cam1 on the start's inliers (robust Sampson distance).
 void RefinePose(const RelativePoseOptions& options,
                 const std::vector<Eigen::Vector2d>& inliers1,
                 const std::vector<Eigen::Vector2d>& inliers2, double loss_scale,
                 Eigen::Vector4d* qvec, Eigen::Vector3d* tvec) {
+  Eigen::Vector4d refined_qvec = *qvec;
+  Eigen::Vector3d refined_tvec = *tvec;
+  ceres::Problem problem;
+  ceres::LossFunction* loss = new ceres::CauchyLoss(loss_scale);
   const size_t num_points =
       std::min<size_t>(inliers1.size(), options.max_num_refinement_points);
-  if (num_points == 0 || !(loss_scale > 0)) return;
-  std::vector<Eigen::Vector3d> rays1(num_points);
-  std::vector<Eigen::Vector3d> rays2(num_points);
   for (size_t k = 0; k < num_points; ++k) {
-    const size_t i = k * inliers1.size() / num_points;  // Evenly spread.
-    rays1[k] = inliers1[i].homogeneous();
-    rays2[k] = inliers2[i].homogeneous();
+    const size_t i = k * inliers1.size() / num_points;
+    problem.AddResidualBlock(SampsonErrorCost::Create(inliers1[i], inliers2[i]),
+                             loss, refined_qvec.data(), refined_tvec.data());
   }
-  const double b = loss_scale * loss_scale;
-  Eigen::Matrix3d R = colmap::QuaternionToRotationMatrix(*qvec);
-  Eigen::Vector3d t = tvec->normalized();
-  double cost = RobustSampsonCost(CrossProductMatrix(t) * R, rays1, rays2, b);
-  if (!std::isfinite(cost)) return;
-  // Relative decrease of the cost below which the refinement stops, and the
-  // damping's bounds (numerical settings of the solver, as Ceres' defaults).
-  constexpr double kFunctionTolerance = 1e-6;
-  constexpr double kMinLambda = 1e-12;
-  constexpr double kMaxLambda = 1e12;
-  double lambda = 1e-4;
-  for (int iteration = 0; iteration < options.max_num_refinement_iterations;
-       ++iteration) {
-    // E(dw, dt) = [t + B dt]x exp([dw]x) R: derivatives at zero.
-    Eigen::Vector3d helper = std::abs(t(0)) < 0.9 ? Eigen::Vector3d::UnitX()
-                                                  : Eigen::Vector3d::UnitY();
-    const Eigen::Vector3d b1 = t.cross(helper).normalized();
-    const Eigen::Vector3d b2 = t.cross(b1);
-    const Eigen::Matrix3d t_cross = CrossProductMatrix(t);
-    std::array<Eigen::Matrix3d, 5> dE;
-    for (int k = 0; k < 3; ++k) {
-      dE[k] = t_cross * CrossProductMatrix(Eigen::Vector3d::Unit(k)) * R;
-    }
-    dE[3] = CrossProductMatrix(b1) * R;
-    dE[4] = CrossProductMatrix(b2) * R;
-    const Eigen::Matrix3d E = t_cross * R;
-
-    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
-    Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
-    Eigen::Matrix3d dr_dE;
-    for (size_t i = 0; i < num_points; ++i) {
-      const double r = SampsonResidual(E, rays1[i], rays2[i], &dr_dE);
-      Eigen::Matrix<double, 5, 1> J;
-      for (int k = 0; k < 5; ++k) J(k) = dr_dE.cwiseProduct(dE[k]).sum();
-      const double w = 1.0 / (1.0 + r * r / b);  // Cauchy IRLS weight.
-      H.noalias() += w * J * J.transpose();
-      g.noalias() += w * r * J;
-    }
-    bool improved = false;
-    while (lambda <= kMaxLambda) {
-      Eigen::Matrix<double, 5, 5> damped = H;
-      damped.diagonal() += lambda * (H.diagonal().array() + 1e-12).matrix();
-      const Eigen::Matrix<double, 5, 1> step = damped.ldlt().solve(-g);
-      if (!step.allFinite()) break;
-      const Eigen::Matrix3d new_R =
-          Eigen::AngleAxisd(step.head<3>().norm(),
-                            step.head<3>().norm() > 0
-                                ? Eigen::Vector3d(step.head<3>().normalized())
-                                : Eigen::Vector3d::UnitZ())
-              .toRotationMatrix() *
-          R;
-      const Eigen::Vector3d new_t =
-          (t + step(3) * b1 + step(4) * b2).normalized();
-      const double new_cost =
-          RobustSampsonCost(CrossProductMatrix(new_t) * new_R, rays1, rays2, b);
-      if (std::isfinite(new_cost) && new_cost < cost) {
-        const double decrease = (cost - new_cost) / cost;
-        R = new_R;
-        t = new_t;
-        cost = new_cost;
-        lambda = std::max(kMinLambda, lambda / 10);
-        improved = decrease > kFunctionTolerance;
-        break;
-      }
-      lambda *= 10;
-    }
-    if (!improved) break;
-  }
-  if (R.allFinite() && t.allFinite() && t.norm() > 0) {
-    *qvec = colmap::NormalizeQuaternion(colmap::RotationMatrixToQuaternion(R));
-    *tvec = t.normalized();
+  colmap::SetQuaternionManifold(&problem, refined_qvec.data());
+  colmap::SetSphereManifold<3>(&problem, refined_tvec.data());
+  ceres::Solver::Options solver_options;
+  solver_options.max_num_iterations = options.max_num_refinement_iterations;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.num_threads = 1;  // Pairs already run in parallel.
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  if (summary.IsSolutionUsable() && refined_qvec.allFinite() &&
+      refined_tvec.allFinite() && refined_tvec.norm() > 0) {
+    *qvec = colmap::NormalizeQuaternion(refined_qvec);
+    *tvec = refined_tvec.normalized();
   }
 }
 
