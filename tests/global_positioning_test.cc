@@ -256,7 +256,7 @@ TEST(GlobalPositioning, KeepsTheLowerCostOfTwoStarts) {
   EXPECT_LE(summary.free_solve_cost, summary.other_start_cost);
 
   GlobalPositioningOptions single = options;
-  single.also_random_start = false;
+  single.random_start_unless_converged = false;
   single.start_from_image_centers = !summary.kept_random_start;
   Scene one = MakeRingScene(20, 500, 1.0);
   ShuffleCenters(&one);
@@ -276,8 +276,8 @@ TEST(GlobalPositioning, KeepsTheLowerCostOfTwoStarts) {
 TEST(GlobalPositioning, ConvergedStartFromCentersIsComparedWithRandomStart) {
   // Centres near the truth: the solve from them converges, and the random
   // start is solved too (a converged solve can be in a worse minimum); the
-  // lower cost is kept, here the right layout. Without also_random_start
-  // only the centres are solved.
+  // lower cost is kept, here the right layout. Above
+  // random_start_max_num_images only the centres are solved.
   auto near_truth = []() {
     Scene scene = MakeRingScene(20, 500, 1.0);
     for (size_t i = 0; i < scene.image_ids.size(); ++i) {
@@ -299,7 +299,7 @@ TEST(GlobalPositioning, ConvergedStartFromCentersIsComparedWithRandomStart) {
   EXPECT_LE(summary.free_solve_cost, summary.other_start_cost);
   EXPECT_LT(RelativeCenterError(both), 5e-3);
 
-  options.also_random_start = false;
+  options.random_start_max_num_images = 19;
   Scene one = near_truth();
   GlobalPositioningSummary one_summary;
   ASSERT_TRUE(RunGlobalPositioning(options, one.tracks, &one.reconstruction, {},
@@ -341,7 +341,7 @@ TEST(GlobalPositioning, RandomStartStillBehindAtTheCheckIsStopped) {
   EXPECT_GT(summary.other_start_cost, summary.free_solve_cost);
 
   GlobalPositioningOptions centres_only = options;
-  centres_only.also_random_start = false;
+  centres_only.random_start_unless_converged = false;
   Scene one = near_truth();
   GlobalPositioningSummary one_summary;
   ASSERT_TRUE(RunGlobalPositioning(centres_only, one.tracks,

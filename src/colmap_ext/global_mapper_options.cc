@@ -78,7 +78,7 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("init_positions_from_pairs", &o->init_positions_from_pairs,
         "Start global positioning from camera centres fitted to the pairs' "
         "translation directions instead of random ones (keeps long "
-        "streets in one model; see gp_also_random_start)");
+        "streets in one model; see gp_random_start_unless_converged)");
 
   b.Group("Position priors");
   auto& pp = o->position_priors;
@@ -256,9 +256,12 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Add("gp_min_scale", &gp.min_scale,
         "Lower bound of every ray scale (keeps points in front of their "
         "cameras) [1 / scene units]");
-  b.Add("gp_also_random_start", &gp.also_random_start,
-        "With init_positions_from_pairs: also solve from the random start "
-        "and keep the lower cost");
+  b.Add("gp_random_start_unless_converged", &gp.random_start_unless_converged,
+        "With init_positions_from_pairs: if that start does not converge, "
+        "also solve from the random start and keep the lower cost");
+  b.Add("gp_random_start_max_num_images", &gp.random_start_max_num_images,
+        "Up to this many images, solve the random start also when the "
+        "start from the pairs converges");
   b.Add("gp_random_start_check_iterations", &gp.random_start_check_iterations,
         "That random solve is stopped after this many iterations if its cost "
         "is still above the other start's final cost (0: never)");

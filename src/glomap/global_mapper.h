@@ -69,8 +69,10 @@ struct GlobalMapperOptions {
   bool skip_pose_verification = false;
   // Start global positioning from the camera centres of
   // position_initialization (the pairs' translation directions) instead of
-  // the paper's random start; the random start is solved too and the lower
-  // cost kept (global_positioning.also_random_start). It keeps 3,000- and
+  // the paper's random start; if that solve does not converge, or the
+  // problem is small, the random start is solved too and the lower cost kept
+  // (global_positioning.random_start_unless_converged,
+  // random_start_max_num_images). It keeps 3,000- and
   // 5,000-image streets in one model where the random start alone splits
   // them (issue 14); on dino-363 the random start wins the comparison.
   bool init_positions_from_pairs = true;

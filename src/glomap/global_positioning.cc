@@ -333,6 +333,7 @@ Status GlobalPositioningOptions::Check(const std::string& prefix) const {
   check.AtLeast("prior_max_num_iterations", prior_max_num_iterations, 0);
   check.AtLeast("random_start_check_iterations", random_start_check_iterations,
                 0);
+  check.AtLeast("random_start_max_num_images", random_start_max_num_images, 0);
   check.AtLeast("function_tolerance", function_tolerance, 0);
   check.GreaterThan("init_box_size", init_box_size, 0);
   check.GreaterThan("uncalibrated_weight", uncalibrated_weight, 0);
@@ -487,15 +488,20 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
   GlobalPositioningSummary positioning_summary;
   positioning_summary.kept_random_start = !options.start_from_image_centers;
 
-  // A solve from the images' centres, converged or stopped at its iteration
-  // cap, may be in a worse minimum of the same objective than the random
-  // start reaches (measured on dino-363, where many pairs' directions are
-  // wrong): the random start is solved too and the lower cost kept. Both
+  // A solve from the images' centres, stopped at its iteration cap or (in
+  // small problems, where the random solve is cheap) converged, may be in a
+  // worse minimum of the same objective than the random start reaches
+  // (measured on dino-363, where many pairs' directions are wrong): the
+  // random start is solved too and the lower cost kept. Both
   // minimise the same cost, so the comparison is fair; the random solve is the
   // one a run without position initialization makes (same seed, same draws),
   // unless it is stopped while still behind (random_start_check_iterations; a
   // solve stopped there would not be kept anyway, its cost being above).
-  if (options.start_from_image_centers && options.also_random_start) {
+  if (options.start_from_image_centers &&
+      options.random_start_unless_converged &&
+      (summary.termination_type != ceres::CONVERGENCE ||
+       num_problem_images <=
+           static_cast<size_t>(options.random_start_max_num_images))) {
     PositioningState random_state = random_start();
     ceres::Solver::Summary random_summary;
     std::unique_ptr<StopIfBehind> stop_if_behind;
