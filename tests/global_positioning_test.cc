@@ -231,6 +231,21 @@ void ShuffleCenters(Scene* scene) {
   }
 }
 
+// A 20-image ring whose images start at their true centres moved by
+// `scale` * (sin i, y_factor * cos 3i, 0): a start from image centres
+// near the right layout.
+Scene RingSceneStartingNearTruth(double scale, double y_factor) {
+  Scene scene = MakeRingScene(20, 500, 1.0);
+  for (size_t i = 0; i < scene.image_ids.size(); ++i) {
+    colmap::Image& image = scene.reconstruction.Image(scene.image_ids[i]);
+    const Eigen::Vector3d start =
+        scene.true_centers[i] +
+        scale * Eigen::Vector3d(std::sin(i), y_factor * std::cos(3 * i), 0);
+    image.SetTvec(-(image.RotationMatrix() * start));
+  }
+  return scene;
+}
+
 TEST(GlobalPositioning, KeepsTheLowerCostOfTwoStarts) {
   // From a wrong layout with too few iterations to converge, the random
   // start is solved too; the lower cost is kept, and the result is exactly
@@ -278,16 +293,7 @@ TEST(GlobalPositioning, ConvergedStartFromCentersIsComparedWithRandomStart) {
   // start is solved too (a converged solve can be in a worse minimum); the
   // lower cost is kept, here the right layout. Above
   // random_start_max_num_images only the centres are solved.
-  auto near_truth = []() {
-    Scene scene = MakeRingScene(20, 500, 1.0);
-    for (size_t i = 0; i < scene.image_ids.size(); ++i) {
-      colmap::Image& image = scene.reconstruction.Image(scene.image_ids[i]);
-      const Eigen::Vector3d start =
-          scene.true_centers[i] + 0.2 * Eigen::Vector3d(std::sin(i), 0, 0);
-      image.SetTvec(-(image.RotationMatrix() * start));
-    }
-    return scene;
-  };
+  auto near_truth = []() { return RingSceneStartingNearTruth(0.2, 0); };
   GlobalPositioningOptions options;
   options.start_from_image_centers = true;
   Scene both = near_truth();
@@ -315,17 +321,7 @@ TEST(GlobalPositioning, RandomStartStillBehindAtTheCheckIsStopped) {
   // iterations to converge: the random start is solved too, and stopped at
   // its check iteration, where its cost is still far above; the result is
   // the solve from the centres alone.
-  auto near_truth = []() {
-    Scene scene = MakeRingScene(20, 500, 1.0);
-    for (size_t i = 0; i < scene.image_ids.size(); ++i) {
-      colmap::Image& image = scene.reconstruction.Image(scene.image_ids[i]);
-      const Eigen::Vector3d start =
-          scene.true_centers[i] +
-          2.0 * Eigen::Vector3d(std::sin(i), std::cos(3 * i), 0);
-      image.SetTvec(-(image.RotationMatrix() * start));
-    }
-    return scene;
-  };
+  auto near_truth = []() { return RingSceneStartingNearTruth(2.0, 1); };
   GlobalPositioningOptions options;
   options.start_from_image_centers = true;
   options.max_num_iterations = 3;

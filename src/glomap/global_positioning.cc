@@ -492,11 +492,11 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
   // small problems, where the random solve is cheap) converged, may be in a
   // worse minimum of the same objective than the random start reaches
   // (measured on dino-363, where many pairs' directions are wrong): the
-  // random start is solved too and the lower cost kept. Both
-  // minimise the same cost, so the comparison is fair; the random solve is the
-  // one a run without position initialization makes (same seed, same draws),
-  // unless it is stopped while still behind (random_start_check_iterations; a
-  // solve stopped there would not be kept anyway, its cost being above).
+  // random start is solved too and the lower cost kept. Both minimise the
+  // same cost, so the comparison is fair; the random solve is the one a run
+  // without position initialization makes (same seed, same draws), unless it
+  // is stopped while still behind (random_start_check_iterations; a solve
+  // stopped there would not be kept anyway, its cost being above).
   if (options.start_from_image_centers &&
       options.random_start_unless_converged &&
       (summary.termination_type != ceres::CONVERGENCE ||
