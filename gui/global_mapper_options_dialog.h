@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "colmap_ext/global_mapper_options.h"
-#include "glomap/global_mapper.h"
+#include "glomap/controllers/global_mapper.h"
 
 namespace colmap {
 

@@ -18,9 +18,9 @@
 #include <vector>
 
 #include "base/reconstruction_manager.h"
-#include "glomap/global_mapper.h"
-#include "glomap/global_mapper_controller.h"
-#include "glomap/status.h"
+#include "glomap/controllers/global_mapper.h"
+#include "glomap/controllers/global_mapper_controller.h"
+#include "glomap/util/status.h"
 
 namespace colmap {
 

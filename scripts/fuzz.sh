@@ -60,12 +60,12 @@ if [[ ! -f "${BUILD_DIR}/build.ninja" || ! -f "${BUILD_DIR}/colmap/src/libcolmap
   exit 1
 fi
 sources=("${ROOT_DIR}/tests/fuzz/database_reader_fuzzer.cc"
-  "${ROOT_DIR}/src/glomap/database_reader.cc"
-  "${ROOT_DIR}/src/glomap/view_graph.cc")
+  "${ROOT_DIR}/src/glomap/io/database_reader.cc"
+  "${ROOT_DIR}/src/glomap/scene/view_graph.cc")
 needs_build=0
 if [[ ! -x "${FUZZER}" ]]; then
   needs_build=1
-elif [[ -n "$(find "${sources[@]}" "${ROOT_DIR}"/src/glomap/{database_reader,view_graph,status}.h \
+elif [[ -n "$(find "${sources[@]}" "${ROOT_DIR}"/src/glomap/{io/database_reader,scene/view_graph,util/status}.h \
   "${BASH_SOURCE[0]}" "${BUILD_DIR}/build.ninja" \
   "${BUILD_DIR}/colmap/src/libcolmap.a" -newer "${FUZZER}" 2>/dev/null)" ]]; then
   needs_build=1

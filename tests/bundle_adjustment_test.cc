@@ -1,4 +1,4 @@
-#include "glomap/bundle_adjustment.h"
+#include "glomap/estimators/bundle_adjustment.h"
 
 #include <gtest/gtest.h>
 

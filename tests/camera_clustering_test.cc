@@ -1,4 +1,4 @@
-#include "glomap/camera_clustering.h"
+#include "glomap/processors/camera_clustering.h"
 
 #include <gtest/gtest.h>
 

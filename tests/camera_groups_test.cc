@@ -1,4 +1,4 @@
-#include "glomap/camera_groups.h"
+#include "glomap/scene/camera_groups.h"
 
 #include <gtest/gtest.h>
 

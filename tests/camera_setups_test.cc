@@ -13,7 +13,7 @@
 
 #include "base/database.h"
 #include "colmap_ext/model_evaluation.h"
-#include "glomap/global_mapper.h"
+#include "glomap/controllers/global_mapper.h"
 #include "tests/support/synthetic_scene.h"
 #include "tests/support/test_paths.h"
 

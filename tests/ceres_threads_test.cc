@@ -1,4 +1,4 @@
-#include "glomap/ceres_threads.h"
+#include "glomap/util/ceres_threads.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "glomap/database_reader.h"
+#include "glomap/io/database_reader.h"
 
 #include <gtest/gtest.h>
 #include <signal.h>

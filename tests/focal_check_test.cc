@@ -1,4 +1,4 @@
-#include "glomap/focal_check.h"
+#include "glomap/processors/focal_check.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // The thread that `colmap global_mapper` and the GUI run: whatever the
 // pipeline throws ends the run as its error, and never leaves the thread
 // (which would terminate the command and the GUI).
-#include "glomap/global_mapper_controller.h"
+#include "glomap/controllers/global_mapper_controller.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // The whole pipeline, end to end: synthetic scenes with known answers, and
 // real datasets of ../shared/datasets against the reference mappers' figures
 // in each dataset's README.
-#include "glomap/global_mapper.h"
+#include "glomap/controllers/global_mapper.h"
 
 #include <gtest/gtest.h>
 

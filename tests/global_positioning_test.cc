@@ -1,4 +1,4 @@
-#include "glomap/global_positioning.h"
+#include "glomap/estimators/global_positioning.h"
 
 #include <gtest/gtest.h>
 

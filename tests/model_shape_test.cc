@@ -1,6 +1,6 @@
 // The model shape measures (issue 14): view spread, and the nadir block
 // whose dome can hide, on blocks built by hand.
-#include "glomap/model_shape.h"
+#include "glomap/processors/model_shape.h"
 
 #include <gtest/gtest.h>
 

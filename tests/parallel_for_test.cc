@@ -1,4 +1,4 @@
-#include "glomap/parallel_for.h"
+#include "glomap/util/parallel_for.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "glomap/pose_manifold.h"
+#include "glomap/estimators/cost_functions/pose_manifold.h"
 
 #include <gtest/gtest.h>
 

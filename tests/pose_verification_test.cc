@@ -1,4 +1,4 @@
-#include "glomap/pose_verification.h"
+#include "glomap/processors/pose_verification.h"
 
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 
 #include "base/pose.h"
 #include "base/similarity_transform.h"
-#include "glomap/database_reader.h"
+#include "glomap/io/database_reader.h"
 #include "tests/support/synthetic_scene.h"
 #include "tests/support/test_paths.h"
 

@@ -1,4 +1,4 @@
-#include "glomap/position_initialization.h"
+#include "glomap/estimators/position_initialization.h"
 
 #include <gtest/gtest.h>
 

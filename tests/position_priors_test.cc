@@ -1,7 +1,7 @@
 // Position priors in and out (issue 12): options, conversion of GPS into ENU
 // or ECEF, metric priors as given, the errors and warnings on bad priors, and
 // the georegistration.txt text. Synthetic reconstructions built by hand.
-#include "glomap/position_priors.h"
+#include "glomap/priors/position_priors.h"
 
 #include <gtest/gtest.h>
 

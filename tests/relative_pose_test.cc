@@ -1,4 +1,4 @@
-#include "glomap/relative_pose.h"
+#include "glomap/estimators/relative_pose.h"
 
 #include <gtest/gtest.h>
 

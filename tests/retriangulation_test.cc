@@ -1,4 +1,4 @@
-#include "glomap/retriangulation.h"
+#include "glomap/estimators/retriangulation.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "glomap/rotation_averaging.h"
+#include "glomap/estimators/rotation_averaging.h"
 
 #include <gtest/gtest.h>
 

@@ -14,7 +14,7 @@
 #include "base/gps.h"
 #include "base/pose.h"
 #include "estimators/two_view_geometry.h"
-#include "glomap/database_reader.h"
+#include "glomap/io/database_reader.h"
 #include "tests/support/test_paths.h"
 
 namespace glomap {

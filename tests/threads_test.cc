@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "base/reconstruction_manager.h"
-#include "glomap/ceres_threads.h"
-#include "glomap/global_mapper_controller.h"
-#include "glomap/parallel_for.h"
+#include "glomap/controllers/global_mapper_controller.h"
+#include "glomap/util/ceres_threads.h"
+#include "glomap/util/parallel_for.h"
 #include "tests/support/synthetic_scene.h"
 #include "tests/support/test_paths.h"
 

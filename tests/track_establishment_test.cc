@@ -1,4 +1,4 @@
-#include "glomap/track_establishment.h"
+#include "glomap/processors/track_establishment.h"
 
 #include <gtest/gtest.h>
 

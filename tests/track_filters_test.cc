@@ -1,4 +1,4 @@
-#include "glomap/track_filters.h"
+#include "glomap/processors/track_filters.h"
 
 #include <gtest/gtest.h>
 

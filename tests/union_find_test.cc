@@ -1,4 +1,4 @@
-#include "glomap/union_find.h"
+#include "glomap/util/union_find.h"
 
 #include <gtest/gtest.h>
 

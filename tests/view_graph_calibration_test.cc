@@ -1,4 +1,4 @@
-#include "glomap/view_graph_calibration.h"
+#include "glomap/estimators/view_graph_calibration.h"
 
 #include <gtest/gtest.h>
 

@@ -1,10 +1,10 @@
-#include "glomap/view_graph.h"
+#include "glomap/scene/view_graph.h"
 
 #include <gtest/gtest.h>
 
 #include <vector>
 
-#include "glomap/tracks.h"
+#include "glomap/scene/tracks.h"
 
 namespace glomap {
 namespace {

@@ -8,7 +8,7 @@
 #include <variant>
 #include <vector>
 
-#include "glomap/global_mapper.h"
+#include "glomap/controllers/global_mapper.h"
 
 namespace colmap {
 class OptionManager;

@@ -18,8 +18,8 @@
 
 #include "base/reconstruction_manager.h"
 #include "colmap_ext/terminate_handler.h"
-#include "glomap/global_mapper_controller.h"
-#include "glomap/status.h"
+#include "glomap/controllers/global_mapper_controller.h"
+#include "glomap/util/status.h"
 #include "util/option_manager.h"
 
 namespace colmap {

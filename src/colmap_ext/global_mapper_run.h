@@ -17,7 +17,7 @@
 #include <string>
 #include <thread>
 
-#include "glomap/global_mapper.h"
+#include "glomap/controllers/global_mapper.h"
 
 namespace colmap {
 

@@ -5,7 +5,7 @@
 #include <exception>
 #include <string>
 
-#include "glomap/status.h"
+#include "glomap/util/status.h"
 
 namespace colmap {
 

@@ -15,8 +15,8 @@
 #include <string>
 
 #include "base/reconstruction.h"
-#include "glomap/database_reader.h"
-#include "glomap/view_graph.h"
+#include "glomap/io/database_reader.h"
+#include "glomap/scene/view_graph.h"
 #include "util/logging.h"
 
 namespace {

@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "glomap/database_reader.h"
+#include "glomap/io/database_reader.h"
 #include "tests/support/synthetic_scene.h"
 
 namespace {

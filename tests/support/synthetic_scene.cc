@@ -21,7 +21,7 @@
 #include "base/gps.h"
 #include "base/pose.h"
 #include "estimators/two_view_geometry.h"
-#include "glomap/parallel_for.h"
+#include "glomap/util/parallel_for.h"
 #include "tests/support/camera_rotation.h"
 #include "util/random.h"
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "base/reconstruction.h"
-#include "glomap/status.h"
+#include "glomap/util/status.h"
 
 namespace glomap {
 
