@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iomanip>
 #include <iterator>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <unordered_set>
@@ -13,7 +15,6 @@
 #include "base/pose.h"
 #include "base/projection.h"
 #include "base/similarity_transform.h"
-#include "glomap/priors/prior_alignment.h"
 #include "glomap/processors/model_shape.h"
 #include "glomap/processors/track_filters.h"
 #include "glomap/util/options_check.h"
@@ -342,149 +343,379 @@ GlobalMapperOptions WithGeneralOptionsPropagated(GlobalMapperOptions options) {
   return options;
 }
 
-// The priors' mean, taken out of the frame the solves work in and put back
-// in the output: ECEF or projected coordinates (millions of metres) would
-// otherwise cost the solves most of their precision in t = -R c and in
-// every point. Whole metres, so that the shift itself is exact.
-Eigen::Vector3d PriorFrameOffset(const PositionPriorTerm& priors) {
-  if (priors.empty()) return Eigen::Vector3d::Zero();
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const auto& [image_id, center] : priors.center_in_frame) mean += center;
-  mean /= static_cast<double>(priors.center_in_frame.size());
-  return mean.array().round().matrix();
+// What the stages of one run hand on to each other.
+struct RunState {
+  RunState(const GlobalMapperOptions& options, colmap::Reconstruction* work,
+           std::vector<colmap::Reconstruction>* models,
+           const GlobalMapperCallbacks& callbacks, GlobalMapperSummary* summary,
+           MapperPriors* priors)
+      : options(options),
+        work(work),
+        models(models),
+        interrupt(callbacks.interrupt),
+        model_changed([&callbacks]() {
+          if (callbacks.on_model_changed) callbacks.on_model_changed();
+        }),
+        summary(summary),
+        priors(priors) {}
+
+  const GlobalMapperOptions& options;
+  colmap::Reconstruction* work;
+  std::vector<colmap::Reconstruction>* models;
+  const Interrupt& interrupt;
+  const std::function<void()> model_changed;
+  GlobalMapperSummary* summary;
+  MapperPriors* priors;
+
+  ViewGraph view_graph;
+  TrackStore tracks;
+  MergedCameras merged_cameras;
+  // Focal lengths known before the solve (EXIF, or given by the user), by
+  // database camera id: the bundle adjustment holds them softly (see
+  // GlobalBundleAdjustmentOptions::prior_focal_lengths_px).
+  std::map<colmap::camera_t, double> prior_focal_lengths_px;
+  // The focal check's record (focal_check.h): focal lengths without a prior
+  // before and after view-graph calibration, and each image's camera then.
+  std::map<colmap::camera_t, double> start_focals;
+  std::map<colmap::camera_t, double> calibrated_focals;
+  std::map<colmap::image_t, colmap::camera_t> calibrated_camera_of_image;
+  // The options of the bundle adjustment rounds and of retriangulation (its
+  // final bundle adjustment), as ChooseRefinedIntrinsics set them.
+  GlobalBundleAdjustmentOptions bundle_adjustment;
+  RetriangulationOptions retriangulation;
+  // The single cluster's model was moved out of `work` (now empty).
+  bool work_moved = false;
+};
+
+// 1. View graph from the database (read-only).
+Status ReadInput(const std::string& database_path, RunState* run,
+                 std::string* counts) {
+  const Status status = ReadDatabase(database_path, run->options.database,
+                                     run->work, &run->view_graph);
+  if (!status.ok()) return status;
+  run->summary->num_images = run->work->NumImages();
+  *counts = Counts({{"cameras", run->work->NumCameras()},
+                    {"images", run->work->NumImages()},
+                    {"pairs", run->view_graph.NumPairs()}});
+  return Status::Ok();
 }
 
-// "Rejected N position priors (farther than X m from their camera): a, b".
-void LogRejectedPriors(const colmap::Reconstruction& model,
-                       const std::vector<colmap::image_t>& rejected_image_ids,
-                       double max_error_m) {
-  if (rejected_image_ids.empty()) return;
-  LOG(WARNING) << "Rejected " << rejected_image_ids.size()
-               << " position priors (farther than " << max_error_m
-               << " m from their camera): "
-               << ImageNames(model, rejected_image_ids);
-}
-
-// Rejects the priors of `all_priors` farther than the threshold from their
-// camera in `model`, re-admits the others, and says what changed. Keeps the
-// previous choice if the new one would not fix a similarity.
-void RecheckPriors(const colmap::Reconstruction& model,
-                   const PositionPriorTerm& all_priors,
-                   std::vector<colmap::image_t>* rejected_image_ids,
-                   PositionPriorTerm* used_priors) {
-  const std::vector<colmap::image_t> rejected = ImagesFartherFromPrior(
-      model, all_priors.center_in_frame, all_priors.MaxErrorM());
-  if (rejected == *rejected_image_ids) return;
-  PositionPriorTerm used = all_priors;
-  for (const colmap::image_t image_id : rejected) {
-    used.center_in_frame.erase(image_id);
-  }
-  std::vector<Eigen::Vector3d> registered_priors;
-  for (const auto& [image_id, center] : used.center_in_frame) {
-    if (model.IsImageRegistered(image_id)) registered_priors.push_back(center);
-  }
-  if (!PriorsFixSimilarity(registered_priors)) return;
-  std::vector<colmap::image_t> readmitted;
-  std::set_difference(rejected_image_ids->begin(), rejected_image_ids->end(),
-                      rejected.begin(), rejected.end(),
-                      std::back_inserter(readmitted));
-  std::vector<colmap::image_t> newly_rejected;
-  std::set_difference(rejected.begin(), rejected.end(),
-                      rejected_image_ids->begin(), rejected_image_ids->end(),
-                      std::back_inserter(newly_rejected));
-  LOG(INFO) << "Position priors checked again after bundle adjustment: "
-            << readmitted.size() << " re-admitted (within "
-            << all_priors.MaxErrorM() << " m of their camera now), "
-            << newly_rejected.size() << " newly rejected.";
-  *rejected_image_ids = rejected;
-  *used_priors = std::move(used);
-  LogRejectedPriors(model, *rejected_image_ids, all_priors.MaxErrorM());
-}
-
-// Logs how far the used priors are from their cameras in the output models
-// (in the output frame: `priors` minus `offset`), and names those beyond the
-// rejection threshold, which the robust loss down-weighted. Returns the
-// number of used priors whose image is registered.
-size_t ReportFinalPriorErrors(const std::vector<colmap::Reconstruction>& models,
-                              const PositionPriorTerm& priors,
-                              const Eigen::Vector3d& offset) {
-  std::vector<double> errors_m;
-  std::vector<std::string> far_names;
-  for (const colmap::Reconstruction& model : models) {
-    std::vector<colmap::image_t> image_ids = model.RegImageIds();
-    std::sort(image_ids.begin(), image_ids.end());
-    for (const colmap::image_t image_id : image_ids) {
-      const auto prior = priors.center_in_frame.find(image_id);
-      if (prior == priors.center_in_frame.end()) continue;
-      const double error_m =
-          (model.Image(image_id).ProjectionCenter() - (prior->second + offset))
-              .norm();
-      errors_m.push_back(error_m);
-      if (!(error_m <= priors.MaxErrorM())) {
-        far_names.push_back(model.Image(image_id).Name());
-      }
+// Identical cameras are one camera until the output; the focal priors and
+// the focal lengths the calibration starts from are noted.
+Status PrepareCameras(RunState* run, std::string*) {
+  for (const auto& [camera_id, camera] : run->work->Cameras()) {
+    if (camera.HasPriorFocalLength()) {
+      run->prior_focal_lengths_px[camera_id] = camera.MeanFocalLength();
     }
   }
-  if (errors_m.empty()) return 0;
-  std::sort(errors_m.begin(), errors_m.end());
-  LOG(INFO) << "Position priors: camera to prior distance median "
-            << errors_m[errors_m.size() / 2] << " m, max " << errors_m.back()
-            << " m over " << errors_m.size() << " images.";
-  if (!far_names.empty()) {
-    std::ostringstream names;
-    for (size_t i = 0; i < far_names.size(); ++i) {
-      names << (i > 0 ? ", " : "") << far_names[i];
-    }
-    LOG(WARNING) << far_names.size() << " position priors are farther than "
-                 << priors.MaxErrorM()
-                 << " m from their camera after bundle adjustment "
-                    "(down-weighted by the robust loss): "
-                 << names.str();
+  if (run->options.merge_identical_cameras) {
+    run->merged_cameras =
+        MergeIdenticalCameras(IdenticalCameraGroups(*run->work), run->work);
   }
-  return errors_m.size();
+  if (run->merged_cameras.num_groups > 0) {
+    LOG(INFO) << run->merged_cameras.num_cameras
+              << " cameras are identical in the database ("
+              << run->merged_cameras.num_groups
+              << " group(s)): each group is calibrated and refined as one "
+                 "camera, and every image keeps its own camera in the output "
+                 "(GlobalMapper.merge_identical_cameras).";
+  }
+  run->start_focals = FocalsWithoutPrior(*run->work);
+  return Status::Ok();
 }
 
-// The priors' noise as the output models show it (every prior of a
-// registered image, rejected ones included, so that a standard deviation
-// set too small cannot hide its own symptom), and a warning when it is well
-// above GlobalMapper.prior_position_std_m: good priors are then rejected as
-// wrong and the others pull harder than they should. Returns the estimate
-// [m], NaN with too few priors.
-double ReportPriorNoise(const std::vector<colmap::Reconstruction>& models,
-                        const PositionPriorTerm& all_priors,
-                        const Eigen::Vector3d& offset, size_t num_rejected) {
-  std::vector<double> distances_m;
-  for (const colmap::Reconstruction& model : models) {
-    for (const colmap::image_t image_id : model.RegImageIds()) {
-      const auto prior = all_priors.center_in_frame.find(image_id);
-      if (prior == all_priors.center_in_frame.end()) continue;
-      distances_m.push_back(
-          (model.Image(image_id).ProjectionCenter() - (prior->second + offset))
-              .norm());
-    }
+// 2. View-graph calibration of focal lengths without a prior (Sec. 3).
+Status CalibrateFocalLengths(RunState* run, std::string* counts) {
+  size_t num_invalidated = 0;
+  const Status status =
+      CalibrateViewGraph(run->options.view_graph_calibration, run->work,
+                         &run->view_graph, &num_invalidated, run->interrupt);
+  if (!status.ok()) return status;
+  *counts = Counts({{"pairs_rejected", num_invalidated},
+                    {"pairs_kept", run->view_graph.NumValidPairs()}});
+  return Status::Ok();
+}
+
+// The focal lengths as calibration left them, for the focal check.
+Status NoteCalibratedFocals(RunState* run, std::string*) {
+  run->calibrated_focals = FocalsWithoutPrior(*run->work);
+  for (const auto& [image_id, image] : run->work->Images()) {
+    run->calibrated_camera_of_image.emplace(image_id, image.CameraId());
   }
-  const size_t num_priors = distances_m.size();
-  const double noise_m = EstimatePriorNoiseStdM(std::move(distances_m));
-  if (!std::isfinite(noise_m)) return noise_m;
-  // Twice the stated deviation: 10% of wrong priors raise the estimate by
-  // about 7%, so a warning means the stated value is wrong.
-  constexpr double kTooNoisyFactor = 2;
-  if (noise_m > kTooNoisyFactor * all_priors.std_m) {
-    LOG(WARNING) << "The position priors look noisier than "
-                    "GlobalMapper.prior_position_std_m says: their distances "
-                    "from the cameras imply about "
-                 << noise_m << " m per axis, against " << all_priors.std_m
-                 << " m; " << num_rejected << " of " << num_priors
-                 << " were rejected as wrong and the rest were weighted too "
-                    "strongly. Set prior_position_std_m to the priors' "
-                    "accuracy.";
+  return Status::Ok();
+}
+
+// 3. Relative poses, inlier re-scoring, largest connected component.
+Status EstimatePairPoses(RunState* run, std::string* counts) {
+  RelativePoseStatistics statistics;
+  const Status status =
+      EstimateRelativePoses(run->options.relative_pose, *run->work,
+                            &run->view_graph, &statistics, run->interrupt);
+  if (!status.ok()) return status;
+  const std::vector<colmap::image_t> component =
+      run->view_graph.LargestConnectedComponent();
+  if (component.size() < 2) {
+    return Status::Error(
+        "No two images share enough consistent matches to start a "
+        "reconstruction (the view graph has no connected pair).");
+  }
+  const size_t num_connected_images = component.size();
+  const size_t num_images = run->work->NumImages();
+  if (num_connected_images < static_cast<size_t>(run->options.min_model_size)) {
+    return TooFewImagesForModel(num_connected_images,
+                                run->options.min_model_size,
+                                "are connected by consistent matches");
+  }
+  if (num_connected_images < run->view_graph.ImagesWithValidPairs().size() ||
+      num_connected_images < num_images) {
+    LOG(WARNING) << "The view graph is disconnected: "
+                 << num_images - num_connected_images << " of " << num_images
+                 << " images are not connected to the largest component and "
+                    "cannot be registered.";
+  }
+  run->view_graph.InvalidatePairsOutside(
+      std::unordered_set<colmap::image_t>(component.begin(), component.end()));
+  *counts =
+      Counts({{"pairs_rejected", statistics.num_invalidated_pairs},
+              {"from_stored_geometry", statistics.num_from_stored_geometry},
+              {"from_ransac", statistics.num_from_ransac},
+              {"pairs_kept", run->view_graph.NumValidPairs()},
+              {"images_connected", num_connected_images}});
+  return Status::Ok();
+}
+
+// 4. Rotation averaging with rejection of inconsistent pairs.
+Status AverageImageRotations(RunState* run, std::string* counts) {
+  size_t num_rejected = 0;
+  const Status status =
+      AverageRotations(run->options.rotation_averaging, &run->view_graph,
+                       run->work, &num_rejected, run->interrupt);
+  if (!status.ok()) return status;
+  const size_t num_registered = run->work->NumRegImages();
+  if (num_registered < static_cast<size_t>(run->options.min_model_size)) {
+    return TooFewImagesForModel(num_registered, run->options.min_model_size,
+                                "have consistent rotations");
+  }
+  *counts = Counts({{"pairs_rejected", num_rejected},
+                    {"pairs_kept", run->view_graph.NumValidPairs()},
+                    {"images_registered", num_registered}});
+  return Status::Ok();
+}
+
+// 5. Tracks from the filtered inlier matches.
+Status MakeTracks(RunState* run, std::string* counts) {
+  size_t num_inconsistent = 0;
+  TrackEstablishmentOptions track_options = run->options.tracks;
+  if (run->work->NumRegImages() == 2) {
+    // A two-view model (min_model_size 2): its tracks have two views.
+    track_options.min_num_views_per_track = 2;
+    LOG(INFO) << "Two registered images: tracks of two views are kept.";
+  }
+  run->tracks = EstablishTracks(track_options, run->view_graph, *run->work,
+                                &num_inconsistent);
+  // The tracks were the last reader of the inlier indices.
+  run->view_graph.ReleaseInlierIdxs();
+  ReturnFreedMemory();
+  if (run->tracks.NumTracks() == 0) {
+    return Status::Error(
+        "No feature track is seen in three or more registered images: the "
+        "matches are too sparse to reconstruct.");
+  }
+  *counts = Counts({{"tracks", run->tracks.NumTracks()},
+                    {"observations", run->tracks.NumObservations()},
+                    {"inconsistent_tracks", num_inconsistent}});
+  return Status::Ok();
+}
+
+// "images_registered=.., points=.., observations=..".
+std::string ModelCounts(const colmap::Reconstruction& model) {
+  return Counts({{"images_registered", model.NumRegImages()},
+                 {"points", model.NumPoints3D()},
+                 {"observations", model.ComputeNumObservations()}});
+}
+
+// 6. Global positioning: cameras and points jointly (Sec. 3, the bounded
+// ray objective), started from the centres that the pairs' translation
+// directions give (and from the paper's random start where that solve does
+// not converge, or the problem is small; the lower cost is kept).
+Status PositionCamerasAndPoints(RunState* run, std::string* counts) {
+  if (run->options.init_positions_from_pairs) {
+    const Status status =
+        InitializeCameraCenters(run->options.position_initialization,
+                                run->view_graph, run->work, run->interrupt);
+    if (!status.ok()) return status;
+  }
+  GlobalPositioningSummary positioning;
+  const Status status = RunGlobalPositioning(
+      run->options.global_positioning, run->tracks, run->work, run->interrupt,
+      run->priors->Term(), &positioning);
+  if (!status.ok()) return status;
+  run->tracks.Clear();  // The points hold the tracks now.
+  ReturnFreedMemory();
+  *counts = ModelCounts(*run->work);
+  const std::string prior_counts = run->priors->AcceptPositioning(
+      positioning.georegistered, positioning.num_priors_used,
+      positioning.rejected_image_ids, run->work);
+  if (!prior_counts.empty()) *counts += ", " + prior_counts;
+  return Status::Ok();
+}
+
+// 7. Every camera checked against the structure the others observe: a
+// camera that positioning could not constrain is re-placed or left out.
+Status VerifyPositionedPoses(RunState* run, std::string* counts) {
+  PoseVerificationOptions verification = run->options.pose_verification;
+  verification.max_reproj_error_px =
+      verification.positioning_max_reproj_error_px;
+  return VerifyPosesAndCount(verification, run->view_graph, run->work,
+                             run->interrupt, run->summary, counts);
+}
+
+// Which intrinsics bundle adjustment and retriangulation refine: principal
+// points, when they are to be refined, only where the viewing directions
+// make them observable (min_view_spread_deg_for_principal_point; a user who
+// fixes them keeps them fixed); known focal lengths held softly. A nadir
+// block that refines radial distortion without position priors can bend
+// into a dome that its reprojection error does not show (NadirBlockShape):
+// the user learns it, and what prevents it.
+Status ChooseRefinedIntrinsics(RunState* run, std::string*) {
+  GlobalBundleAdjustmentOptions& ba = run->bundle_adjustment;
+  ba = run->options.bundle_adjustment;
+  run->retriangulation = run->options.retriangulation;
+  ba.prior_focal_lengths_px = run->prior_focal_lengths_px;
+  run->retriangulation.bundle_adjustment.prior_focal_lengths_px =
+      run->prior_focal_lengths_px;
+  if (ba.min_view_spread_deg_for_principal_point > 0 &&
+      ba.refine_principal_point) {
+    const double spread_deg = ViewDirectionSpreadDeg(*run->work);
+    const bool observable =
+        spread_deg >= ba.min_view_spread_deg_for_principal_point;
+    LOG(INFO) << "Viewing directions spread by " << std::fixed
+              << std::setprecision(1) << spread_deg << " deg: principal points "
+              << (observable ? "are refined" : "stay fixed") << ".";
+    ba.refine_principal_point = observable;
+    run->retriangulation.bundle_adjustment.refine_principal_point = observable;
+  }
+  if (!run->priors->georegistered() && ba.refine_extra_params) {
+    WarnIfDomeCanHide(*run->work);
+  }
+  return Status::Ok();
+}
+
+// 8. Rounds of global bundle adjustment with filtering; merged cameras that
+// fit clearly better apart are split.
+Status AdjustBundle(RunState* run, std::string* counts) {
+  Status status = RunGlobalBundleAdjustment(run->bundle_adjustment, run->work,
+                                            run->interrupt, run->model_changed,
+                                            run->priors->Term());
+  if (!status.ok()) return status;
+  if (run->merged_cameras.num_groups > 0) {
+    status = SplitGroupsThatFitApart(run->bundle_adjustment,
+                                     run->priors->Term(), run->interrupt,
+                                     &run->merged_cameras, run->work);
+    if (!status.ok()) return status;
+  }
+  ReturnFreedMemory();
+  *counts = ModelCounts(*run->work);
+  return Status::Ok();
+}
+
+// 9. Retriangulation on the database matches, then bundle adjustment.
+Status RetriangulateAndAdjust(RunState* run, std::string* counts) {
+  const Status status =
+      Retriangulate(run->retriangulation, run->view_graph, run->work,
+                    run->interrupt, run->priors->Term());
+  if (!status.ok()) return status;
+  *counts = ModelCounts(*run->work);
+  return Status::Ok();
+}
+
+// Focal lengths that the view graph left at their start values and bundle
+// adjustment then moved: the model was built on a focal length nothing
+// fixed (focal_check.h).
+Status WarnOfUndeterminedFocals(RunState* run, std::string*) {
+  const std::string warning = UndeterminedFocalWarning(FindUndeterminedFocals(
+      run->options.focal_check, run->start_focals, run->calibrated_focals,
+      run->calibrated_camera_of_image, *run->work));
+  if (!warning.empty()) {
+    LOG(WARNING) << warning;
+    run->summary->warnings.push_back(warning);
+  }
+  return Status::Ok();
+}
+
+// 10. The same check on the final poses, before anything is written.
+Status VerifyFinalPoses(RunState* run, std::string* counts) {
+  return VerifyPosesAndCount(run->options.pose_verification, run->view_graph,
+                             run->work, run->interrupt, run->summary, counts);
+}
+
+// No later stage reads the view graph: its matches go before the models are
+// made.
+Status ReleaseViewGraph(RunState* run, std::string*) {
+  run->view_graph = ViewGraph();
+  ReturnFreedMemory();
+  return Status::Ok();
+}
+
+// 11. Camera clustering into separate models, each in its output frame
+// with its own cameras again, point errors and colours.
+Status MakeModels(RunState* run, std::string* counts) {
+  colmap::Reconstruction* work = run->work;
+  std::vector<std::vector<colmap::image_t>> clusters;
+  if (run->options.skip_clustering) {
+    clusters.push_back(work->RegImageIds());
+    std::sort(clusters.back().begin(), clusters.back().end());
   } else {
-    LOG(INFO) << "Position priors: noise about " << noise_m
-              << " m per axis as the model shows it (prior_position_std_m "
-              << all_priors.std_m << " m).";
+    clusters = ClusterCameras(run->options.clustering, *work);
   }
-  return noise_m;
+  // What the summary needs of `work`, taken before a single cluster's model
+  // is moved out of it.
+  const size_t num_images = work->NumImages();
+  run->priors->NoteRejectedImageNames(*work);
+  for (const auto& cluster : clusters) {
+    if (static_cast<int>(cluster.size()) < run->options.min_model_size) {
+      continue;
+    }
+    // A single cluster is the whole working model: it is moved, and `work`
+    // is left empty (the caller replaces it by the models).
+    run->work_moved = clusters.size() == 1;
+    colmap::Reconstruction model =
+        run->work_moved ? std::exchange(*work, colmap::Reconstruction())
+                        : ExtractCluster(*work, cluster);
+    SplitMergedCameras(run->merged_cameras, &model);
+    run->priors->ToOutputFrame(&model);
+    UpdatePointErrors(&model);
+    if (!run->options.image_path.empty()) {
+      ExtractColors(run->options.image_path, &model);
+    }
+    run->models->push_back(std::move(model));
+  }
+  if (run->models->empty()) {
+    return Status::Error(
+        "Nothing was reconstructed: no camera cluster has at least " +
+        std::to_string(run->options.min_model_size) +
+        " images (GlobalMapper.min_model_size).");
+  }
+  size_t num_registered = 0;
+  for (const auto& model : *run->models) num_registered += model.NumRegImages();
+  run->summary->num_registered_images = num_registered;
+  run->priors->ReportOnModels(*run->models);
+  *counts = Counts({{"models", run->models->size()},
+                    {"images_registered", num_registered},
+                    {"images", num_images}});
+  return Status::Ok();
 }
+
+// One step of the pipeline: a stage (named: timed, logged and reported to
+// on_stage_begin with its index) or a step between stages (unnamed). A step
+// that is not enabled is skipped; a stage keeps its index either way.
+struct PipelineStep {
+  const char* stage_name;
+  bool enabled;
+  std::function<Status(RunState*, std::string* counts)> run;
+  // Call on_model_changed after the stage's line.
+  bool model_changed = false;
+};
 
 }  // namespace
 
@@ -531,410 +762,67 @@ Status GlobalMapper::Run(const std::string& database_path,
   // its stage lines, warnings and summary; at 3 and above, every detail.
   if (FLAGS_v < 3) google::SetVLOGLevel("*", 0);
   summary_ = GlobalMapperSummary();
-  georegistration_ = Georegistration();
+  priors_ = MapperPriors();
   models->clear();
   // The stages check their options too, but only this names them as the
   // user set them (GlobalMapper.<key>).
   if (const Status check = options_.Check(); !check.ok()) return check;
   colmap::Timer total_timer;
   total_timer.Start();
-  const Interrupt& interrupt = callbacks.interrupt;
-  auto model_changed = [&callbacks]() {
-    if (callbacks.on_model_changed) callbacks.on_model_changed();
+  RunState run(options_, work, models, callbacks, &summary_, &priors_);
+  const GlobalMapperOptions& o = options_;
+  const bool adjusts = !o.skip_bundle_adjustment;
+  // The pipeline, top to bottom (the numbers are the README's).
+  const std::vector<PipelineStep> steps = {
+      {"Database", true,
+       [&database_path](RunState* r, std::string* counts) {
+         return ReadInput(database_path, r, counts);
+       }},
+      {nullptr, true, PrepareCameras},
+      {nullptr, true,
+       [](RunState* r, std::string*) {
+         return r->priors->Prepare(r->options.position_priors, *r->work);
+       }},
+      {"View graph calibration", !o.skip_view_graph_calibration,
+       CalibrateFocalLengths},
+      {nullptr, true, NoteCalibratedFocals},
+      {"Relative poses", true, EstimatePairPoses},
+      {"Rotation averaging", true, AverageImageRotations},
+      {"Tracks", true, MakeTracks},
+      {"Global positioning", true, PositionCamerasAndPoints, true},
+      {"Pose verification", !o.skip_pose_verification, VerifyPositionedPoses},
+      {nullptr, true, ChooseRefinedIntrinsics},
+      {"Bundle adjustment", adjusts, AdjustBundle},
+      {nullptr, adjusts,
+       [](RunState* r, std::string*) {
+         r->priors->RecheckAfterBundleAdjustment(*r->work);
+         return Status::Ok();
+       }},
+      {"Retriangulation", !o.skip_retriangulation, RetriangulateAndAdjust,
+       true},
+      {nullptr, adjusts, WarnOfUndeterminedFocals},
+      {"Final pose verification", !o.skip_pose_verification, VerifyFinalPoses},
+      {nullptr, true, ReleaseViewGraph},
+      {"Camera clustering", true, MakeModels},
   };
-  ViewGraph view_graph;
-
-  // 1. View graph from the database (read-only).
-  {
-    StageTimer stage("Database", 0, &summary_, callbacks);
-    const Status status =
-        ReadDatabase(database_path, options_.database, work, &view_graph);
-    if (!status.ok()) return status;
-    summary_.num_images = work->NumImages();
-    stage.Finish(Counts({{"cameras", work->NumCameras()},
-                         {"images", work->NumImages()},
-                         {"pairs", view_graph.NumPairs()}}));
-  }
-  if (interrupt.IsStopped()) return Status::Cancelled();
-
-  // Focal lengths known before the solve (EXIF, or given by the user), by
-  // database camera id: the bundle adjustment holds them softly (see
-  // GlobalBundleAdjustmentOptions::prior_focal_lengths_px).
-  std::map<colmap::camera_t, double> prior_focal_lengths_px;
-  for (const auto& [camera_id, camera] : work->Cameras()) {
-    if (camera.HasPriorFocalLength()) {
-      prior_focal_lengths_px[camera_id] = camera.MeanFocalLength();
-    }
-  }
-
-  // Identical cameras are one camera until the output.
-  MergedCameras merged_cameras;
-  if (options_.merge_identical_cameras) {
-    merged_cameras = MergeIdenticalCameras(IdenticalCameraGroups(*work), work);
-    if (merged_cameras.num_groups > 0) {
-      LOG(INFO) << merged_cameras.num_cameras
-                << " cameras are identical in the database ("
-                << merged_cameras.num_groups
-                << " group(s)): each group is calibrated and refined as one "
-                   "camera, and every image keeps its own camera in the "
-                   "output (GlobalMapper.merge_identical_cameras).";
-    }
-  }
-
-  // Position priors (issue 12), validated and in one metric frame; empty
-  // when off or unusable (the free solve, as without priors).
-  PositionPriorTerm prior_term;
-  // All priors, also those rejected (they are checked again after bundle
-  // adjustment).
-  PositionPriorTerm all_priors;
-  Eigen::Vector3d prior_frame_offset = Eigen::Vector3d::Zero();
-  {
-    PositionPriors priors;
-    const Status status =
-        PreparePositionPriors(options_.position_priors, *work, &priors);
-    if (!status.ok()) return status;
-    georegistration_ = priors.georegistration;
-    georegistration_.georegistered = false;
-    prior_term = MakePositionPriorTerm(priors, options_.position_priors);
-    prior_frame_offset = PriorFrameOffset(prior_term);
-    for (auto& [image_id, center] : prior_term.center_in_frame) {
-      center -= prior_frame_offset;
-    }
-    all_priors = prior_term;
-  }
-  std::vector<colmap::image_t> rejected_prior_ids;
-
-  // 2. View-graph calibration of focal lengths without a prior (Sec. 3).
-  const std::map<colmap::camera_t, double> start_focals =
-      FocalsWithoutPrior(*work);
-  if (!options_.skip_view_graph_calibration) {
-    StageTimer stage("View graph calibration", 1, &summary_, callbacks);
-    size_t num_invalidated = 0;
-    const Status status =
-        CalibrateViewGraph(options_.view_graph_calibration, work, &view_graph,
-                           &num_invalidated, interrupt);
-    if (!status.ok()) return status;
-    stage.Finish(Counts({{"pairs_rejected", num_invalidated},
-                         {"pairs_kept", view_graph.NumValidPairs()}}));
-  }
-  if (interrupt.IsStopped()) return Status::Cancelled();
-  const std::map<colmap::camera_t, double> calibrated_focals =
-      FocalsWithoutPrior(*work);
-  std::map<colmap::image_t, colmap::camera_t> calibrated_camera_of_image;
-  for (const auto& [image_id, image] : work->Images()) {
-    calibrated_camera_of_image.emplace(image_id, image.CameraId());
-  }
-
-  // 3. Relative poses, inlier re-scoring, largest connected component.
-  {
-    StageTimer stage("Relative poses", 2, &summary_, callbacks);
-    RelativePoseStatistics statistics;
-    const Status status = EstimateRelativePoses(
-        options_.relative_pose, *work, &view_graph, &statistics, interrupt);
-    if (!status.ok()) return status;
-    const std::vector<colmap::image_t> component =
-        view_graph.LargestConnectedComponent();
-    if (component.size() < 2) {
-      return Status::Error(
-          "No two images share enough consistent matches to start a "
-          "reconstruction (the view graph has no connected pair).");
-    }
-    const size_t num_connected_images = component.size();
-    if (num_connected_images < static_cast<size_t>(options_.min_model_size)) {
-      return TooFewImagesForModel(num_connected_images, options_.min_model_size,
-                                  "are connected by consistent matches");
-    }
-    if (num_connected_images < view_graph.ImagesWithValidPairs().size() ||
-        num_connected_images < work->NumImages()) {
-      LOG(WARNING) << "The view graph is disconnected: "
-                   << work->NumImages() - num_connected_images << " of "
-                   << work->NumImages()
-                   << " images are not connected to the largest component "
-                      "and cannot be registered.";
-    }
-    view_graph.InvalidatePairsOutside(std::unordered_set<colmap::image_t>(
-        component.begin(), component.end()));
-    stage.Finish(
-        Counts({{"pairs_rejected", statistics.num_invalidated_pairs},
-                {"from_stored_geometry", statistics.num_from_stored_geometry},
-                {"from_ransac", statistics.num_from_ransac},
-                {"pairs_kept", view_graph.NumValidPairs()},
-                {"images_connected", num_connected_images}}));
-  }
-  if (interrupt.IsStopped()) return Status::Cancelled();
-
-  // 4. Rotation averaging with rejection of inconsistent pairs.
-  {
-    StageTimer stage("Rotation averaging", 3, &summary_, callbacks);
-    size_t num_rejected = 0;
-    const Status status =
-        AverageRotations(options_.rotation_averaging, &view_graph, work,
-                         &num_rejected, interrupt);
-    if (!status.ok()) return status;
-    if (work->NumRegImages() < static_cast<size_t>(options_.min_model_size)) {
-      return TooFewImagesForModel(work->NumRegImages(), options_.min_model_size,
-                                  "have consistent rotations");
-    }
-    stage.Finish(Counts({{"pairs_rejected", num_rejected},
-                         {"pairs_kept", view_graph.NumValidPairs()},
-                         {"images_registered", work->NumRegImages()}}));
-  }
-  if (interrupt.IsStopped()) return Status::Cancelled();
-
-  // 5. Tracks from the filtered inlier matches.
-  TrackStore tracks;
-  {
-    StageTimer stage("Tracks", 4, &summary_, callbacks);
-    size_t num_inconsistent = 0;
-    TrackEstablishmentOptions track_options = options_.tracks;
-    if (work->NumRegImages() == 2) {
-      // A two-view model (min_model_size 2): its tracks have two views.
-      track_options.min_num_views_per_track = 2;
-      LOG(INFO) << "Two registered images: tracks of two views are kept.";
-    }
-    tracks =
-        EstablishTracks(track_options, view_graph, *work, &num_inconsistent);
-    // The tracks were the last reader of the inlier indices.
-    view_graph.ReleaseInlierIdxs();
-    ReturnFreedMemory();
-    if (tracks.NumTracks() == 0) {
-      return Status::Error(
-          "No feature track is seen in three or more registered images: "
-          "the matches are too sparse to reconstruct.");
-    }
-    stage.Finish(Counts({{"tracks", tracks.NumTracks()},
-                         {"observations", tracks.NumObservations()},
-                         {"inconsistent_tracks", num_inconsistent}}));
-  }
-  if (interrupt.IsStopped()) return Status::Cancelled();
-
-  // 6. Global positioning: cameras and points jointly (Sec. 3, the bounded
-  // ray objective), started from the centres that the pairs' translation
-  // directions give (and from the paper's random start where that solve
-  // does not converge; the lower cost is kept).
-  {
-    StageTimer stage("Global positioning", 5, &summary_, callbacks);
-    if (options_.init_positions_from_pairs) {
-      const Status status = InitializeCameraCenters(
-          options_.position_initialization, view_graph, work, interrupt);
-      if (!status.ok()) return status;
-    }
-    GlobalPositioningSummary prior_summary;
-    const Status status = RunGlobalPositioning(
-        options_.global_positioning, tracks, work, interrupt,
-        prior_term.empty() ? nullptr : &prior_term, &prior_summary);
-    if (!status.ok()) return status;
-    tracks.Clear();  // The points hold the tracks now.
-    ReturnFreedMemory();
-    std::string counts =
-        Counts({{"images_registered", work->NumRegImages()},
-                {"points", work->NumPoints3D()},
-                {"observations", work->ComputeNumObservations()}});
-    if (prior_summary.georegistered) {
-      // The model is in the prior frame, in metres: no normalisation. The
-      // rejected priors are left out of every later solve.
-      rejected_prior_ids = prior_summary.rejected_image_ids;
-      for (const colmap::image_t image_id : rejected_prior_ids) {
-        prior_term.center_in_frame.erase(image_id);
-      }
-      georegistration_.georegistered = true;
-      LogRejectedPriors(*work, rejected_prior_ids, prior_term.MaxErrorM());
-      counts += ", " + Counts({{"priors_used", prior_summary.num_priors_used},
-                               {"priors_rejected",
-                                prior_summary.rejected_image_ids.size()}});
-    } else {
-      // No priors, or they could not fix the frame (global positioning
-      // said why): the free solve, as without priors.
-      prior_term.center_in_frame.clear();
-      georegistration_.num_priors_used = 0;
-      work->Normalize();
-    }
-    stage.Finish(counts);
-    model_changed();
-  }
-  if (interrupt.IsStopped()) return Status::Cancelled();
-
-  // 7. Every camera checked against the structure the others observe: a
-  // camera that positioning could not constrain is re-placed or left out.
-  if (!options_.skip_pose_verification) {
-    StageTimer stage("Pose verification", 6, &summary_, callbacks);
-    PoseVerificationOptions verification = options_.pose_verification;
-    verification.max_reproj_error_px =
-        verification.positioning_max_reproj_error_px;
+  // Each step in turn; the run stops at the first error, and at a cancel
+  // between two steps (the stages also stop inside at a cancel).
+  int stage_index = 0;
+  for (size_t i = 0; i < steps.size(); ++i) {
+    const PipelineStep& step = steps[i];
+    const int index = step.stage_name == nullptr ? -1 : stage_index++;
+    if (!step.enabled) continue;
+    std::optional<StageTimer> stage;
+    if (index >= 0) stage.emplace(step.stage_name, index, &summary_, callbacks);
     std::string counts;
-    const Status status = VerifyPosesAndCount(verification, view_graph, work,
-                                              interrupt, &summary_, &counts);
-    if (!status.ok()) return status;
-    stage.Finish(counts);
-  }
-  if (interrupt.IsStopped()) return Status::Cancelled();
-
-  // Principal points, when they are to be refined, are refined only where
-  // the viewing directions make them observable (see
-  // min_view_spread_deg_for_principal_point); a user who fixes them keeps
-  // them fixed.
-  GlobalBundleAdjustmentOptions ba_options = options_.bundle_adjustment;
-  RetriangulationOptions retriangulation_options = options_.retriangulation;
-  ba_options.prior_focal_lengths_px = prior_focal_lengths_px;
-  retriangulation_options.bundle_adjustment.prior_focal_lengths_px =
-      prior_focal_lengths_px;
-  if (ba_options.min_view_spread_deg_for_principal_point > 0 &&
-      ba_options.refine_principal_point) {
-    const double spread_deg = ViewDirectionSpreadDeg(*work);
-    const bool observable =
-        spread_deg >= ba_options.min_view_spread_deg_for_principal_point;
-    LOG(INFO) << "Viewing directions spread by " << std::fixed
-              << std::setprecision(1) << spread_deg << " deg: principal points "
-              << (observable ? "are refined" : "stay fixed") << ".";
-    ba_options.refine_principal_point = observable;
-    retriangulation_options.bundle_adjustment.refine_principal_point =
-        observable;
-  }
-
-  // A nadir block that refines radial distortion without position priors
-  // can bend into a dome that its reprojection error does not show (see
-  // NadirBlockShape): the user learns it, and what prevents it.
-  if (!georegistration_.georegistered && ba_options.refine_extra_params) {
-    WarnIfDomeCanHide(*work);
-  }
-
-  // 8. Rounds of global bundle adjustment with filtering.
-  if (!options_.skip_bundle_adjustment) {
-    StageTimer stage("Bundle adjustment", 7, &summary_, callbacks);
-    const Status status =
-        RunGlobalBundleAdjustment(ba_options, work, interrupt, model_changed,
-                                  prior_term.empty() ? nullptr : &prior_term);
-    if (!status.ok()) return status;
-    if (merged_cameras.num_groups > 0) {
-      const Status split_status = SplitGroupsThatFitApart(
-          ba_options, prior_term.empty() ? nullptr : &prior_term, interrupt,
-          &merged_cameras, work);
-      if (!split_status.ok()) return split_status;
+    if (const Status status = step.run(&run, &counts); !status.ok()) {
+      return status;
     }
-    ReturnFreedMemory();
-    stage.Finish(Counts({{"images_registered", work->NumRegImages()},
-                         {"points", work->NumPoints3D()},
-                         {"observations", work->ComputeNumObservations()}}));
-  }
-  if (interrupt.IsStopped()) return Status::Cancelled();
-
-  // The priors judged again on the adjusted model: global positioning's
-  // solution can still be bent where its cameras are far from good priors
-  // (it is a coarse solve, stopped after a few iterations with the priors),
-  // and bundle adjustment with the other priors straightens it.
-  if (georegistration_.georegistered && !options_.skip_bundle_adjustment) {
-    RecheckPriors(*work, all_priors, &rejected_prior_ids, &prior_term);
-  }
-
-  // 9. Retriangulation on the database matches, then bundle adjustment.
-  if (!options_.skip_retriangulation) {
-    StageTimer stage("Retriangulation", 8, &summary_, callbacks);
-    const Status status =
-        Retriangulate(retriangulation_options, view_graph, work, interrupt,
-                      prior_term.empty() ? nullptr : &prior_term);
-    if (!status.ok()) return status;
-    stage.Finish(Counts({{"images_registered", work->NumRegImages()},
-                         {"points", work->NumPoints3D()},
-                         {"observations", work->ComputeNumObservations()}}));
-    model_changed();
-  }
-  if (interrupt.IsStopped()) return Status::Cancelled();
-
-  // Focal lengths that the view graph left at their start values and bundle
-  // adjustment then moved: the model was built on a focal length nothing
-  // fixed (focal_check.h).
-  if (!options_.skip_bundle_adjustment) {
-    const std::string warning = UndeterminedFocalWarning(FindUndeterminedFocals(
-        options_.focal_check, start_focals, calibrated_focals,
-        calibrated_camera_of_image, *work));
-    if (!warning.empty()) {
-      LOG(WARNING) << warning;
-      summary_.warnings.push_back(warning);
+    if (stage) stage->Finish(counts);
+    if (step.model_changed) run.model_changed();
+    if (i + 1 < steps.size() && run.interrupt.IsStopped()) {
+      return Status::Cancelled();
     }
-  }
-
-  // 10. The same check on the final poses, before anything is written.
-  if (!options_.skip_pose_verification) {
-    StageTimer stage("Final pose verification", 9, &summary_, callbacks);
-    std::string counts;
-    const Status status =
-        VerifyPosesAndCount(options_.pose_verification, view_graph, work,
-                            interrupt, &summary_, &counts);
-    if (!status.ok()) return status;
-    stage.Finish(counts);
-  }
-  if (interrupt.IsStopped()) return Status::Cancelled();
-  // No later stage reads the view graph: its matches go before the models
-  // are made.
-  view_graph = ViewGraph();
-  ReturnFreedMemory();
-
-  // 11. Camera clustering into separate models, then output preparation.
-  bool work_moved = false;
-  {
-    StageTimer stage("Camera clustering", 10, &summary_, callbacks);
-    std::vector<std::vector<colmap::image_t>> clusters;
-    if (options_.skip_clustering) {
-      clusters.push_back(work->RegImageIds());
-      std::sort(clusters.back().begin(), clusters.back().end());
-    } else {
-      clusters = ClusterCameras(options_.clustering, *work);
-    }
-    // What the summary needs of `work`, taken before a single cluster's
-    // model is moved out of it.
-    const size_t num_images = work->NumImages();
-    if (georegistration_.georegistered) {
-      for (const colmap::image_t image_id : rejected_prior_ids) {
-        georegistration_.rejected_prior_image_names.push_back(
-            work->Image(image_id).Name());
-      }
-    }
-    for (const auto& cluster : clusters) {
-      if (static_cast<int>(cluster.size()) < options_.min_model_size) continue;
-      // A single cluster is the whole working model: it is moved, and
-      // `work` is left empty (the caller replaces it by the models).
-      work_moved = clusters.size() == 1;
-      colmap::Reconstruction model =
-          work_moved ? std::exchange(*work, colmap::Reconstruction())
-                     : ExtractCluster(*work, cluster);
-      SplitMergedCameras(merged_cameras, &model);
-      if (georegistration_.georegistered) {
-        // In the prior frame, in metres: only the offset taken out for the
-        // solve is put back.
-        model.Transform(colmap::SimilarityTransform3(
-            1, colmap::ComposeIdentityQuaternion(), prior_frame_offset));
-      } else {
-        model.Normalize();
-      }
-      UpdatePointErrors(&model);
-      if (!options_.image_path.empty())
-        ExtractColors(options_.image_path, &model);
-      models->push_back(std::move(model));
-    }
-    if (models->empty()) {
-      return Status::Error(
-          "Nothing was reconstructed: no camera cluster has at least " +
-          std::to_string(options_.min_model_size) +
-          " images (GlobalMapper.min_model_size).");
-    }
-    size_t num_registered = 0;
-    for (const auto& model : *models) num_registered += model.NumRegImages();
-    summary_.num_registered_images = num_registered;
-    if (georegistration_.georegistered) {
-      georegistration_.num_priors_used =
-          ReportFinalPriorErrors(*models, prior_term, prior_frame_offset);
-      georegistration_.prior_noise_estimate_m =
-          ReportPriorNoise(*models, all_priors, prior_frame_offset,
-                           georegistration_.rejected_prior_image_names.size());
-      LOG(INFO) << "The model is georegistered: frame "
-                << georegistration_.frame << ", in metres, "
-                << georegistration_.num_priors_used << " position priors used, "
-                << georegistration_.rejected_prior_image_names.size()
-                << " rejected.";
-    }
-    stage.Finish(Counts({{"models", models->size()},
-                         {"images_registered", num_registered},
-                         {"images", num_images}}));
   }
   summary_.total_seconds = total_timer.ElapsedSeconds();
   LOG(INFO) << "Global mapper finished in " << std::fixed
@@ -949,9 +837,9 @@ Status GlobalMapper::Run(const std::string& database_path,
                     : "; " + std::to_string(summary_.warnings.size()) +
                           " warning(s): " + summary_.warnings.front());
   // An emptied `work` is not worth showing: the caller shows the models.
-  if (!work_moved) {
-    SplitMergedCameras(merged_cameras, work);
-    model_changed();
+  if (!run.work_moved) {
+    SplitMergedCameras(run.merged_cameras, work);
+    run.model_changed();
   }
   return Status::Ok();
 }

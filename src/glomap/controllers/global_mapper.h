@@ -17,6 +17,7 @@
 #include "glomap/estimators/rotation_averaging.h"
 #include "glomap/estimators/view_graph_calibration.h"
 #include "glomap/io/database_reader.h"
+#include "glomap/priors/mapper_priors.h"
 #include "glomap/priors/position_priors.h"
 #include "glomap/processors/camera_clustering.h"
 #include "glomap/processors/focal_check.h"
@@ -156,12 +157,14 @@ class GlobalMapper {
   const GlobalMapperSummary& Summary() const { return summary_; }
   // The frame of the models of the last Run: georegistered when position
   // priors were used (written beside each model as georegistration.txt).
-  const Georegistration& GetGeoregistration() const { return georegistration_; }
+  const Georegistration& GetGeoregistration() const {
+    return priors_.GetGeoregistration();
+  }
 
  private:
   GlobalMapperOptions options_;
   GlobalMapperSummary summary_;
-  Georegistration georegistration_;
+  MapperPriors priors_;
 };
 
 }  // namespace glomap
