@@ -324,6 +324,381 @@ Status SolvePositions(const GlobalPositioningOptions& options,
   return Status::Ok();
 }
 
+// The positioning problem: the registered images (in id order) with their
+// rotations, and the usable tracks' observations (registered images only,
+// one per image, at least two per track; point k's observations are
+// [point_offsets[k], point_offsets[k + 1])).
+struct PositioningProblem {
+  std::vector<colmap::image_t> image_ids;
+  std::vector<Eigen::Matrix3d> world_from_cam_rotations;
+  std::vector<Observation> observations;
+  std::vector<size_t> point_offsets = {0};
+  std::vector<size_t> num_observations_per_image;
+
+  size_t NumPoints() const { return point_offsets.size() - 1; }
+  size_t NumProblemImages() const {
+    size_t num_images = 0;
+    for (const size_t count : num_observations_per_image) {
+      num_images += count > 0;
+    }
+    return num_images;
+  }
+};
+
+// Set-up: the problem of `tracks` on `reconstruction`'s registered images.
+Status SetUpProblem(const TrackStore& tracks,
+                    const colmap::Reconstruction& reconstruction,
+                    PositioningProblem* problem) {
+  problem->image_ids = reconstruction.RegImageIds();
+  std::vector<colmap::image_t>& image_ids = problem->image_ids;
+  std::sort(image_ids.begin(), image_ids.end());
+  std::unordered_map<colmap::image_t, size_t> image_idx_of_id;
+  problem->world_from_cam_rotations.resize(image_ids.size());
+  for (size_t i = 0; i < image_ids.size(); ++i) {
+    image_idx_of_id[image_ids[i]] = i;
+    problem->world_from_cam_rotations[i] =
+        reconstruction.Image(image_ids[i]).RotationMatrix().transpose();
+  }
+  std::vector<Observation>& observations = problem->observations;
+  std::vector<size_t>& point_offsets = problem->point_offsets;
+  observations.reserve(tracks.NumObservations());
+  for (size_t track_idx = 0; track_idx < tracks.NumTracks(); ++track_idx) {
+    const size_t begin = observations.size();
+    for (const TrackObservation* obs = tracks.TrackBegin(track_idx);
+         obs != tracks.TrackEnd(track_idx); ++obs) {
+      const auto image_idx = image_idx_of_id.find(obs->image_id);
+      if (image_idx == image_idx_of_id.end()) continue;
+      if (obs->point2D_idx >=
+          reconstruction.Image(obs->image_id).NumPoints2D()) {
+        continue;
+      }
+      bool is_duplicate = false;
+      for (size_t k = begin; k < observations.size(); ++k) {
+        is_duplicate |= observations[k].image_idx == image_idx->second;
+      }
+      if (is_duplicate) continue;
+      observations.push_back(
+          {image_idx->second, point_offsets.size() - 1, obs->point2D_idx});
+    }
+    if (observations.size() - begin < 2) {
+      observations.resize(begin);
+      continue;
+    }
+    point_offsets.push_back(observations.size());
+  }
+  problem->num_observations_per_image.assign(image_ids.size(), 0);
+  for (const Observation& obs : observations) {
+    ++problem->num_observations_per_image[obs.image_idx];
+  }
+  if (problem->NumPoints() == 0 || problem->NumProblemImages() < 2) {
+    return Status::Error(
+        "Global positioning: no tracks with two or more registered images.");
+  }
+  return Status::Ok();
+}
+
+// The observations' rays in the world frame, and whether each camera has a
+// prior focal length.
+PositioningData MakeRays(const PositioningProblem& problem,
+                         const colmap::Reconstruction& reconstruction) {
+  PositioningData data{
+      problem.observations, problem.num_observations_per_image, {}, {}};
+  data.rays_in_world.reserve(problem.observations.size());
+  data.calibrated.reserve(problem.observations.size());
+  for (const Observation& obs : problem.observations) {
+    const colmap::Image& image =
+        reconstruction.Image(problem.image_ids[obs.image_idx]);
+    const colmap::Camera& camera = reconstruction.Camera(image.CameraId());
+    data.rays_in_world.push_back(
+        problem.world_from_cam_rotations[obs.image_idx] *
+        camera.ImageToWorld(image.Point2D(obs.point2D_idx).XY())
+            .homogeneous()
+            .normalized());
+    data.calibrated.push_back(camera.HasPriorFocalLength());
+  }
+  return data;
+}
+
+// The paper's random start (seeded; images and tracks in a fixed order);
+// centres held fixed keep the images' poses.
+PositioningState RandomStart(const GlobalPositioningOptions& options,
+                             const PositioningProblem& problem,
+                             const colmap::Reconstruction& reconstruction) {
+  std::mt19937 rng(options.random_seed);
+  std::uniform_real_distribution<double> uniform(-options.init_box_size,
+                                                 options.init_box_size);
+  auto random_vector = [&]() {
+    const double x = uniform(rng);
+    const double y = uniform(rng);
+    const double z = uniform(rng);
+    return Eigen::Vector3d(x, y, z);
+  };
+  PositioningState state;
+  state.centers.resize(problem.image_ids.size());
+  for (size_t i = 0; i < problem.image_ids.size(); ++i) {
+    state.centers[i] =
+        options.optimize_positions
+            ? random_vector()
+            : reconstruction.Image(problem.image_ids[i]).ProjectionCenter();
+  }
+  state.points.resize(problem.NumPoints());
+  for (Eigen::Vector3d& point : state.points) point = random_vector();
+  state.scales.assign(problem.observations.size(), 1.0);
+  return state;
+}
+
+// The free solve (without priors): from the images' centres
+// (start_from_image_centers) or the random start. A solve from the centres,
+// stopped at its iteration cap or (in small problems, where the random
+// solve is cheap) converged, may be in a worse minimum of the same
+// objective than the random start reaches (measured on dino-363, where many
+// pairs' directions are wrong): the random start is solved too and the
+// lower cost kept. Both minimise the same cost, so the comparison is fair;
+// the random solve is the one a run without position initialization makes
+// (same seed, same draws), unless it is stopped while still behind
+// (random_start_check_iterations; a solve stopped there would not be kept
+// anyway, its cost being above).
+Status SolveFree(const GlobalPositioningOptions& options,
+                 const PositioningProblem& problem, const PositioningData& data,
+                 const colmap::Reconstruction& reconstruction,
+                 const Interrupt& interrupt, PositioningState* state,
+                 ceres::Solver::Summary* summary,
+                 GlobalPositioningSummary* positioning_summary) {
+  if (options.start_from_image_centers) {
+    state->centers.resize(problem.image_ids.size());
+    for (size_t i = 0; i < problem.image_ids.size(); ++i) {
+      state->centers[i] =
+          reconstruction.Image(problem.image_ids[i]).ProjectionCenter();
+    }
+    TriangulateStart(data, problem.point_offsets, options.min_scale, state);
+  } else {
+    *state = RandomStart(options, problem, reconstruction);
+  }
+  if (const Status status =
+          SolvePositions(options, data, nullptr, interrupt, state, summary);
+      !status.ok()) {
+    return status;
+  }
+  positioning_summary->kept_random_start = !options.start_from_image_centers;
+  if (options.start_from_image_centers &&
+      options.random_start_unless_converged &&
+      (summary->termination_type != ceres::CONVERGENCE ||
+       problem.NumProblemImages() <=
+           static_cast<size_t>(options.random_start_max_num_images))) {
+    PositioningState random_state =
+        RandomStart(options, problem, reconstruction);
+    ceres::Solver::Summary random_summary;
+    std::unique_ptr<StopIfBehind> stop_if_behind;
+    if (options.random_start_check_iterations > 0) {
+      stop_if_behind = std::make_unique<StopIfBehind>(
+          options.random_start_check_iterations, summary->final_cost);
+    }
+    if (const Status status =
+            SolvePositions(options, data, nullptr, interrupt, &random_state,
+                           &random_summary, stop_if_behind.get());
+        !status.ok()) {
+      return status;
+    }
+    const bool stopped_early =
+        stop_if_behind != nullptr && stop_if_behind->stopped();
+    const bool keep_random =
+        !stopped_early && random_summary.final_cost < summary->final_cost;
+    // The usual outcome (the centres' solution kept) is a detail; the other
+    // is worth a line in the default log.
+    LOG_IF(INFO, keep_random || VLOG_IS_ON(3))
+        << "Global positioning: from the image centres "
+        << summary->iterations.size() << " iterations ("
+        << ceres::TerminationTypeToString(summary->termination_type)
+        << "), cost " << summary->final_cost << "; from the random start "
+        << random_summary.iterations.size() << " iterations ("
+        << (stopped_early ? "stopped, still behind"
+                          : ceres::TerminationTypeToString(
+                                random_summary.termination_type))
+        << "), cost " << random_summary.final_cost << "; kept the "
+        << (keep_random ? "random" : "image-centre") << " start's solution.";
+    positioning_summary->other_start_cost =
+        keep_random ? summary->final_cost : random_summary.final_cost;
+    positioning_summary->random_start_stopped_early = stopped_early;
+    positioning_summary->kept_random_start = keep_random;
+    if (keep_random) {
+      *state = std::move(random_state);
+      *summary = random_summary;
+    }
+  }
+  positioning_summary->free_solve_cost = summary->final_cost;
+  return Status::Ok();
+}
+
+// With priors: the free solution into the prior frame by a robust
+// similarity, then solved again from there with the prior term (issue 12).
+// The free solve is what makes global positioning robust; the second solve
+// starts at its solution, so it only has to bend it where the priors
+// disagree with the rays (scale drift, a bent trajectory), which no
+// similarity can do. Where no similarity is found the priors are not used
+// (a warning; georegistered stays false). `free_solve` is for the log.
+Status SolveWithPriors(const GlobalPositioningOptions& options,
+                       const PositionPriorTerm& priors,
+                       const ceres::Solver::Summary& free_solve,
+                       const Interrupt& interrupt, PositioningProblem* problem,
+                       PositioningData* data, PositioningState* state,
+                       colmap::Reconstruction* reconstruction,
+                       GlobalPositioningSummary* positioning_summary) {
+  const std::vector<colmap::image_t>& image_ids = problem->image_ids;
+  std::unordered_map<colmap::image_t, Eigen::Vector3d> problem_centers;
+  for (size_t i = 0; i < image_ids.size(); ++i) {
+    if (problem->num_observations_per_image[i] > 0) {
+      problem_centers[image_ids[i]] = state->centers[i];
+    }
+  }
+  PriorAlignment alignment;
+  const Status aligned =
+      AlignCentersToPriors(problem_centers, priors.center_in_frame,
+                           priors.MaxErrorM(), options.random_seed, &alignment);
+  if (!aligned.ok()) {
+    LOG(WARNING) << aligned.message()
+                 << " The position priors are not used: the model stays in "
+                    "an arbitrary frame.";
+    return Status::Ok();
+  }
+  positioning_summary->georegistered = true;
+  // x' = s R x + t: rays turn with the frame, and d (X - c) keeps its
+  // length with d' = d / s.
+  for (Eigen::Vector3d& center : state->centers) {
+    center = alignment.Apply(center);
+  }
+  for (Eigen::Vector3d& point : state->points) point = alignment.Apply(point);
+  for (double& scale : state->scales) scale /= alignment.scale;
+  for (Eigen::Vector3d& ray : data->rays_in_world) {
+    ray = alignment.rotation * ray;
+  }
+  for (Eigen::Matrix3d& rotation : problem->world_from_cam_rotations) {
+    rotation = alignment.rotation * rotation;
+  }
+  // Every registered image turns with the frame (those outside the problem
+  // are deregistered later, but keep a consistent pose).
+  for (size_t i = 0; i < image_ids.size(); ++i) {
+    reconstruction->Image(image_ids[i])
+        .SetQvec(colmap::RotationMatrixToQuaternion(
+            problem->world_from_cam_rotations[i].transpose()));
+  }
+  // Every prior takes part, under the Cauchy loss: one that the alignment
+  // found too far may be right where the free solution is bent, and a wrong
+  // one pulls its camera with a bounded force against hundreds of rays.
+  std::vector<std::pair<size_t, Eigen::Vector3d>> image_priors;
+  for (size_t i = 0; i < image_ids.size(); ++i) {
+    const auto prior = priors.center_in_frame.find(image_ids[i]);
+    if (problem->num_observations_per_image[i] > 0 &&
+        prior != priors.center_in_frame.end()) {
+      image_priors.emplace_back(i, prior->second);
+    }
+  }
+  // The ray residual is about the angle between observed and predicted ray
+  // (radians), with noise of about keypoint noise / focal length. Each term
+  // counts in units of its own noise, as in bundle adjustment, so the prior
+  // cost is weighted by the ray noise squared: with weight 1 the priors
+  // (metres of noise) would outweigh the rays (a milliradian of noise) a
+  // million times, and each camera would be pulled a good part of the prior
+  // noise towards its prior, bending the rays beyond the angular filter
+  // (measured on a forward sequence with 3 m prior noise: 87% of the
+  // observations filtered).
+  const double ray_noise =
+      std::max(RayNoisePerAxis(*data, *state), kMinRayNoise);
+  PriorResiduals prior_residuals{image_priors, priors.std_m,
+                                 priors.loss_scale_std, ray_noise * ray_noise};
+  ceres::Solver::Summary prior_solve;
+  GlobalPositioningOptions prior_options = options;
+  prior_options.max_num_iterations = options.prior_max_num_iterations;
+  if (const Status status =
+          SolvePositions(prior_options, *data, &prior_residuals, interrupt,
+                         state, &prior_solve);
+      !status.ok()) {
+    return status;
+  }
+  LOG(INFO) << "Global positioning with position priors: aligned to "
+            << alignment.inlier_image_ids.size() << " of "
+            << alignment.inlier_image_ids.size() +
+                   alignment.outlier_image_ids.size()
+            << " priors within " << priors.MaxErrorM() << " m (scale "
+            << alignment.scale << "), ray noise " << ray_noise << ", then "
+            << prior_solve.iterations.size() << " iterations ("
+            << ceres::TerminationTypeToString(prior_solve.termination_type)
+            << ") with the prior term, cost " << prior_solve.initial_cost
+            << " -> " << prior_solve.final_cost << ", "
+            << prior_solve.total_time_in_seconds
+            << " s (free solve: " << free_solve.iterations.size()
+            << " iterations, " << free_solve.total_time_in_seconds << " s)";
+  return Status::Ok();
+}
+
+// Conversion: the poses of the problem's images, then one point per track
+// (in `reconstruction`, whose points are replaced). Returns the number of
+// observations added.
+size_t WriteSolution(const PositioningProblem& problem,
+                     const PositioningState& state,
+                     colmap::Reconstruction* reconstruction) {
+  for (size_t i = 0; i < problem.image_ids.size(); ++i) {
+    if (problem.num_observations_per_image[i] == 0) continue;
+    colmap::Image& image = reconstruction->Image(problem.image_ids[i]);
+    image.SetTvec(
+        -(problem.world_from_cam_rotations[i].transpose() * state.centers[i]));
+  }
+  DeleteAllPoints3D(reconstruction);
+  size_t num_added_observations = 0;
+  for (size_t point_idx = 0; point_idx < problem.NumPoints(); ++point_idx) {
+    colmap::Track track;
+    for (size_t k = problem.point_offsets[point_idx];
+         k < problem.point_offsets[point_idx + 1]; ++k) {
+      const Observation& obs = problem.observations[k];
+      const colmap::image_t image_id = problem.image_ids[obs.image_idx];
+      // A caller's TrackStore could reuse a keypoint in two tracks; COLMAP
+      // would abort on that, so the later track loses the observation.
+      if (reconstruction->Image(image_id)
+              .Point2D(obs.point2D_idx)
+              .HasPoint3D()) {
+        continue;
+      }
+      track.AddElement(image_id, obs.point2D_idx);
+    }
+    if (track.Length() < 2) continue;
+    num_added_observations += track.Length();
+    reconstruction->AddPoint3D(state.points[point_idx], std::move(track));
+  }
+  return num_added_observations;
+}
+
+// After the solve with priors: a prior still this far from its camera is
+// wrong (or its camera is), and bundle adjustment leaves it out; when the
+// others do not fix a similarity the model is left in the free frame rather
+// than pinned to fewer priors than a similarity needs.
+void JudgePriorsOnSolution(const PositionPriorTerm& priors,
+                           const colmap::Reconstruction& reconstruction,
+                           GlobalPositioningSummary* positioning_summary) {
+  positioning_summary->rejected_image_ids = ImagesFartherFromPrior(
+      reconstruction, priors.center_in_frame, priors.MaxErrorM());
+  const std::vector<colmap::image_t>& rejected =
+      positioning_summary->rejected_image_ids;
+  std::vector<Eigen::Vector3d> used_priors;
+  for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
+    const auto prior = priors.center_in_frame.find(image_id);
+    if (prior != priors.center_in_frame.end() &&
+        !std::binary_search(rejected.begin(), rejected.end(), image_id)) {
+      used_priors.push_back(prior->second);
+    }
+  }
+  positioning_summary->num_priors_used = used_priors.size();
+  if (!PriorsFixSimilarity(used_priors)) {
+    // The alignment found three non-collinear priors that agree with the
+    // cameras, so this takes a solve that moved cameras away from them.
+    LOG(WARNING) << "Global positioning: only "
+                 << positioning_summary->num_priors_used
+                 << " position priors (or collinear ones) lie within "
+                 << priors.MaxErrorM()
+                 << " m of their camera: the priors are not used, the model "
+                    "stays in an arbitrary frame.";
+    positioning_summary->georegistered = false;
+  }
+}
+
 }  // namespace
 
 Status GlobalPositioningOptions::Check(const std::string& prefix) const {
@@ -361,313 +736,43 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
     return Status::Error("Invalid global positioning options: " +
                          check.message());
   }
-  if (priors != nullptr && !priors->empty() &&
-      !(priors->std_m > 0 && priors->loss_scale_std > 0 &&
-        priors->max_error_std > 0)) {
+  const bool use_priors = priors != nullptr && !priors->empty();
+  if (use_priors && !(priors->std_m > 0 && priors->loss_scale_std > 0 &&
+                      priors->max_error_std > 0)) {
     return Status::Error(
         "Global positioning: the position priors' standard deviation, loss "
         "scale and rejection threshold must be > 0.");
   }
-  if (summary_out != nullptr) {
-    *summary_out = GlobalPositioningSummary();
-  }
+  if (summary_out != nullptr) *summary_out = GlobalPositioningSummary();
   colmap::Timer timer;
   timer.Start();
 
-  std::vector<colmap::image_t> image_ids = reconstruction->RegImageIds();
-  std::sort(image_ids.begin(), image_ids.end());
-  std::unordered_map<colmap::image_t, size_t> image_idx_of_id;
-  std::vector<Eigen::Matrix3d> world_from_cam_rotations(image_ids.size());
-  for (size_t i = 0; i < image_ids.size(); ++i) {
-    image_idx_of_id[image_ids[i]] = i;
-    world_from_cam_rotations[i] =
-        reconstruction->Image(image_ids[i]).RotationMatrix().transpose();
-  }
-
-  // Observations of the usable tracks: registered images only, one per image,
-  // at least two per track.
-  std::vector<Observation> observations;
-  observations.reserve(tracks.NumObservations());
-  std::vector<size_t> point_offsets = {0};
-  std::vector<size_t> num_observations_per_image(image_ids.size(), 0);
-  for (size_t track_idx = 0; track_idx < tracks.NumTracks(); ++track_idx) {
-    const size_t begin = observations.size();
-    for (const TrackObservation* obs = tracks.TrackBegin(track_idx);
-         obs != tracks.TrackEnd(track_idx); ++obs) {
-      const auto image_idx = image_idx_of_id.find(obs->image_id);
-      if (image_idx == image_idx_of_id.end()) continue;
-      if (obs->point2D_idx >=
-          reconstruction->Image(obs->image_id).NumPoints2D()) {
-        continue;
-      }
-      bool is_duplicate = false;
-      for (size_t k = begin; k < observations.size(); ++k) {
-        is_duplicate |= observations[k].image_idx == image_idx->second;
-      }
-      if (is_duplicate) continue;
-      observations.push_back(
-          {image_idx->second, point_offsets.size() - 1, obs->point2D_idx});
-    }
-    if (observations.size() - begin < 2) {
-      observations.resize(begin);
-      continue;
-    }
-    point_offsets.push_back(observations.size());
-  }
-  const size_t num_points = point_offsets.size() - 1;
-  for (const Observation& obs : observations) {
-    ++num_observations_per_image[obs.image_idx];
-  }
-  size_t num_problem_images = 0;
-  for (const size_t count : num_observations_per_image) {
-    num_problem_images += count > 0;
-  }
-  if (num_points == 0 || num_problem_images < 2) {
-    return Status::Error(
-        "Global positioning: no tracks with two or more registered images.");
-  }
-
-  // Random start (seeded; images and tracks in a fixed order).
-  std::mt19937 rng(options.random_seed);
-  std::uniform_real_distribution<double> uniform(-options.init_box_size,
-                                                 options.init_box_size);
-  auto random_vector = [&]() {
-    const double x = uniform(rng);
-    const double y = uniform(rng);
-    const double z = uniform(rng);
-    return Eigen::Vector3d(x, y, z);
-  };
-  PositioningData data{observations, num_observations_per_image, {}, {}};
-  data.rays_in_world.reserve(observations.size());
-  data.calibrated.reserve(observations.size());
-  for (const Observation& obs : observations) {
-    const colmap::Image& image =
-        reconstruction->Image(image_ids[obs.image_idx]);
-    const colmap::Camera& camera = reconstruction->Camera(image.CameraId());
-    data.rays_in_world.push_back(
-        world_from_cam_rotations[obs.image_idx] *
-        camera.ImageToWorld(image.Point2D(obs.point2D_idx).XY())
-            .homogeneous()
-            .normalized());
-    data.calibrated.push_back(camera.HasPriorFocalLength());
-  }
-
-  // The random start (centres held fixed keep the images' poses).
-  auto random_start = [&]() {
-    PositioningState state;
-    state.centers.resize(image_ids.size());
-    for (size_t i = 0; i < image_ids.size(); ++i) {
-      state.centers[i] =
-          options.optimize_positions
-              ? random_vector()
-              : reconstruction->Image(image_ids[i]).ProjectionCenter();
-    }
-    state.points.resize(num_points);
-    for (Eigen::Vector3d& point : state.points) point = random_vector();
-    state.scales.assign(observations.size(), 1.0);
-    return state;
-  };
-
-  PositioningState state;
-  if (options.start_from_image_centers) {
-    state.centers.resize(image_ids.size());
-    for (size_t i = 0; i < image_ids.size(); ++i) {
-      state.centers[i] = reconstruction->Image(image_ids[i]).ProjectionCenter();
-    }
-    TriangulateStart(data, point_offsets, options.min_scale, &state);
-  } else {
-    state = random_start();
-  }
-
-  ceres::Solver::Summary summary;
-  if (const Status status =
-          SolvePositions(options, data, nullptr, interrupt, &state, &summary);
+  PositioningProblem problem;
+  if (const Status status = SetUpProblem(tracks, *reconstruction, &problem);
       !status.ok()) {
     return status;
   }
+  PositioningData data = MakeRays(problem, *reconstruction);
+  PositioningState state;
+  ceres::Solver::Summary summary;
   GlobalPositioningSummary positioning_summary;
-  positioning_summary.kept_random_start = !options.start_from_image_centers;
-
-  // A solve from the images' centres, stopped at its iteration cap or (in
-  // small problems, where the random solve is cheap) converged, may be in a
-  // worse minimum of the same objective than the random start reaches
-  // (measured on dino-363, where many pairs' directions are wrong): the
-  // random start is solved too and the lower cost kept. Both minimise the
-  // same cost, so the comparison is fair; the random solve is the one a run
-  // without position initialization makes (same seed, same draws), unless it
-  // is stopped while still behind (random_start_check_iterations; a solve
-  // stopped there would not be kept anyway, its cost being above).
-  if (options.start_from_image_centers &&
-      options.random_start_unless_converged &&
-      (summary.termination_type != ceres::CONVERGENCE ||
-       num_problem_images <=
-           static_cast<size_t>(options.random_start_max_num_images))) {
-    PositioningState random_state = random_start();
-    ceres::Solver::Summary random_summary;
-    std::unique_ptr<StopIfBehind> stop_if_behind;
-    if (options.random_start_check_iterations > 0) {
-      stop_if_behind = std::make_unique<StopIfBehind>(
-          options.random_start_check_iterations, summary.final_cost);
-    }
-    if (const Status status =
-            SolvePositions(options, data, nullptr, interrupt, &random_state,
-                           &random_summary, stop_if_behind.get());
+  if (const Status status =
+          SolveFree(options, problem, data, *reconstruction, interrupt, &state,
+                    &summary, &positioning_summary);
+      !status.ok()) {
+    return status;
+  }
+  if (use_priors) {
+    if (const Status status = SolveWithPriors(
+            options, *priors, summary, interrupt, &problem, &data, &state,
+            reconstruction, &positioning_summary);
         !status.ok()) {
       return status;
     }
-    const bool stopped_early =
-        stop_if_behind != nullptr && stop_if_behind->stopped();
-    const bool keep_random =
-        !stopped_early && random_summary.final_cost < summary.final_cost;
-    // The usual outcome (the centres' solution kept) is a detail; the other
-    // is worth a line in the default log.
-    LOG_IF(INFO, keep_random || VLOG_IS_ON(3))
-        << "Global positioning: from the image centres "
-        << summary.iterations.size() << " iterations ("
-        << ceres::TerminationTypeToString(summary.termination_type)
-        << "), cost " << summary.final_cost << "; from the random start "
-        << random_summary.iterations.size() << " iterations ("
-        << (stopped_early ? "stopped, still behind"
-                          : ceres::TerminationTypeToString(
-                                random_summary.termination_type))
-        << "), cost " << random_summary.final_cost << "; kept the "
-        << (keep_random ? "random" : "image-centre") << " start's solution.";
-    positioning_summary.other_start_cost =
-        keep_random ? summary.final_cost : random_summary.final_cost;
-    positioning_summary.random_start_stopped_early = stopped_early;
-    positioning_summary.kept_random_start = keep_random;
-    if (keep_random) {
-      state = std::move(random_state);
-      summary = random_summary;
-    }
-  }
-  positioning_summary.free_solve_cost = summary.final_cost;
-
-  // With priors: the free solution into the prior frame by a robust
-  // similarity, then solved again from there with the prior term (issue 12).
-  // The free solve (from either start, above) is what makes global
-  // positioning robust; the second solve starts at its solution, so it only has
-  // to bend it where the priors disagree with the rays (scale drift, a bent
-  // trajectory), which no similarity can do.
-  const bool use_priors = priors != nullptr && !priors->empty();
-  if (use_priors) {
-    std::unordered_map<colmap::image_t, Eigen::Vector3d> problem_centers;
-    for (size_t i = 0; i < image_ids.size(); ++i) {
-      if (num_observations_per_image[i] > 0) {
-        problem_centers[image_ids[i]] = state.centers[i];
-      }
-    }
-    PriorAlignment alignment;
-    const Status aligned = AlignCentersToPriors(
-        problem_centers, priors->center_in_frame, priors->MaxErrorM(),
-        options.random_seed, &alignment);
-    if (!aligned.ok()) {
-      LOG(WARNING) << aligned.message()
-                   << " The position priors are not used: the model stays "
-                      "in an arbitrary frame.";
-    } else {
-      positioning_summary.georegistered = true;
-      // x' = s R x + t: rays turn with the frame, and d (X - c) keeps its
-      // length with d' = d / s.
-      for (Eigen::Vector3d& center : state.centers) {
-        center = alignment.Apply(center);
-      }
-      for (Eigen::Vector3d& point : state.points) {
-        point = alignment.Apply(point);
-      }
-      for (double& scale : state.scales) scale /= alignment.scale;
-      for (Eigen::Vector3d& ray : data.rays_in_world) {
-        ray = alignment.rotation * ray;
-      }
-      for (Eigen::Matrix3d& rotation : world_from_cam_rotations) {
-        rotation = alignment.rotation * rotation;
-      }
-      // Every registered image turns with the frame (those outside the
-      // problem are deregistered below, but keep a consistent pose).
-      for (size_t i = 0; i < image_ids.size(); ++i) {
-        reconstruction->Image(image_ids[i])
-            .SetQvec(colmap::RotationMatrixToQuaternion(
-                world_from_cam_rotations[i].transpose()));
-      }
-      // Every prior takes part, under the Cauchy loss: one that the
-      // alignment found too far may be right where the free solution is
-      // bent, and a wrong one pulls its camera with a bounded force against
-      // hundreds of rays.
-      std::vector<std::pair<size_t, Eigen::Vector3d>> image_priors;
-      for (size_t i = 0; i < image_ids.size(); ++i) {
-        const auto prior = priors->center_in_frame.find(image_ids[i]);
-        if (num_observations_per_image[i] > 0 &&
-            prior != priors->center_in_frame.end()) {
-          image_priors.emplace_back(i, prior->second);
-        }
-      }
-      // The ray residual is about the angle between observed and predicted
-      // ray (radians), with noise of about keypoint noise / focal length.
-      // Each term counts in units of its own noise, as in bundle
-      // adjustment, so the prior cost is weighted by the ray noise squared:
-      // with weight 1 the priors (metres of noise) would outweigh the rays
-      // (a milliradian of noise) a million times, and each camera would be
-      // pulled a good part of the prior noise towards its prior, bending
-      // the rays beyond the angular filter (measured on a forward sequence
-      // with 3 m prior noise: 87% of the observations filtered).
-      const double ray_noise =
-          std::max(RayNoisePerAxis(data, state), kMinRayNoise);
-      PriorResiduals prior_residuals{image_priors, priors->std_m,
-                                     priors->loss_scale_std,
-                                     ray_noise * ray_noise};
-      ceres::Solver::Summary prior_solve;
-      GlobalPositioningOptions prior_options = options;
-      prior_options.max_num_iterations = options.prior_max_num_iterations;
-      if (const Status status =
-              SolvePositions(prior_options, data, &prior_residuals, interrupt,
-                             &state, &prior_solve);
-          !status.ok()) {
-        return status;
-      }
-      LOG(INFO) << "Global positioning with position priors: aligned to "
-                << alignment.inlier_image_ids.size() << " of "
-                << alignment.inlier_image_ids.size() +
-                       alignment.outlier_image_ids.size()
-                << " priors within " << priors->MaxErrorM() << " m (scale "
-                << alignment.scale << "), ray noise " << ray_noise << ", then "
-                << prior_solve.iterations.size() << " iterations ("
-                << ceres::TerminationTypeToString(prior_solve.termination_type)
-                << ") with the prior term, cost " << prior_solve.initial_cost
-                << " -> " << prior_solve.final_cost << ", "
-                << prior_solve.total_time_in_seconds
-                << " s (free solve: " << summary.iterations.size()
-                << " iterations, " << summary.total_time_in_seconds << " s)";
-    }
   }
 
-  // Write the result: poses, then one point per track.
-  for (size_t i = 0; i < image_ids.size(); ++i) {
-    if (num_observations_per_image[i] == 0) continue;
-    colmap::Image& image = reconstruction->Image(image_ids[i]);
-    image.SetTvec(
-        -(world_from_cam_rotations[i].transpose() * state.centers[i]));
-  }
-  DeleteAllPoints3D(reconstruction);
-  size_t num_added_observations = 0;
-  for (size_t point_idx = 0; point_idx < num_points; ++point_idx) {
-    colmap::Track track;
-    for (size_t k = point_offsets[point_idx]; k < point_offsets[point_idx + 1];
-         ++k) {
-      const colmap::image_t image_id = image_ids[observations[k].image_idx];
-      // A caller's TrackStore could reuse a keypoint in two tracks; COLMAP
-      // would abort on that, so the later track loses the observation.
-      if (reconstruction->Image(image_id)
-              .Point2D(observations[k].point2D_idx)
-              .HasPoint3D()) {
-        continue;
-      }
-      track.AddElement(image_id, observations[k].point2D_idx);
-    }
-    if (track.Length() < 2) continue;
-    num_added_observations += track.Length();
-    reconstruction->AddPoint3D(state.points[point_idx], std::move(track));
-  }
-
+  const size_t num_added_observations =
+      WriteSolution(problem, state, reconstruction);
   const size_t num_angular_outliers = FilterObservationsByAngularError(
       reconstruction, options.max_angular_error_deg,
       options.uncalibrated_angular_error_factor *
@@ -679,17 +784,15 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
           ? 0.0
           : 1.0 - static_cast<double>(num_angular_outliers) /
                       num_added_observations;
-
   size_t num_deregistered = 0;
-  for (const colmap::image_t image_id : image_ids) {
+  for (const colmap::image_t image_id : problem.image_ids) {
     if (reconstruction->Image(image_id).NumPoints3D() == 0) {
       reconstruction->DeRegisterImage(image_id);
       ++num_deregistered;
     }
   }
-
-  VLOG(3) << "Global positioning: " << num_problem_images << " images, "
-          << num_points << " points, " << observations.size()
+  VLOG(3) << "Global positioning: " << problem.NumProblemImages() << " images, "
+          << problem.NumPoints() << " points, " << problem.observations.size()
           << " observations, " << summary.iterations.size() << " iterations ("
           << ceres::TerminationTypeToString(summary.termination_type)
           << "), cost " << summary.initial_cost << " -> " << summary.final_cost
@@ -697,7 +800,6 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
           << num_small_angle_points << " points by triangulation angle; "
           << num_deregistered << " images without points deregistered; "
           << timer.ElapsedSeconds() << " s";
-
   if (inlier_ratio < options.min_inlier_observation_ratio ||
       reconstruction->NumRegImages() < 2 ||
       reconstruction->NumPoints3D() == 0) {
@@ -709,34 +811,7 @@ Status RunGlobalPositioning(const GlobalPositioningOptions& options,
   }
 
   if (positioning_summary.georegistered) {
-    // A prior still this far from its camera after the solve is wrong (or
-    // its camera is): bundle adjustment leaves it out.
-    positioning_summary.rejected_image_ids = ImagesFartherFromPrior(
-        *reconstruction, priors->center_in_frame, priors->MaxErrorM());
-    std::vector<Eigen::Vector3d> used_priors;
-    for (const colmap::image_t image_id : reconstruction->RegImageIds()) {
-      const auto prior = priors->center_in_frame.find(image_id);
-      if (prior != priors->center_in_frame.end() &&
-          !std::binary_search(positioning_summary.rejected_image_ids.begin(),
-                              positioning_summary.rejected_image_ids.end(),
-                              image_id)) {
-        used_priors.push_back(prior->second);
-      }
-    }
-    positioning_summary.num_priors_used = used_priors.size();
-    if (!PriorsFixSimilarity(used_priors)) {
-      // The alignment found three non-collinear priors that agree with the
-      // cameras, so this takes a solve that moved cameras away from them;
-      // the model is then left in the free frame (normalised below) rather
-      // than pinned to fewer priors than a similarity needs.
-      LOG(WARNING) << "Global positioning: only "
-                   << positioning_summary.num_priors_used
-                   << " position priors (or collinear ones) lie within "
-                   << priors->MaxErrorM()
-                   << " m of their camera: the priors are not used, the model "
-                      "stays in an arbitrary frame.";
-      positioning_summary.georegistered = false;
-    }
+    JudgePriorsOnSolution(*priors, *reconstruction, &positioning_summary);
   }
   if (!positioning_summary.georegistered) {
     positioning_summary.num_priors_used = 0;
