@@ -154,6 +154,162 @@ Eigen::Vector3d ProjectionCenter(const colmap::Image& image) {
   return -RotationMatrix(image).transpose() * image.Tvec();
 }
 
+// The ground-truth images (registered ones, in id order) and their matches
+// in the model by name (nullptr where the model does not register one).
+struct MatchedImages {
+  std::vector<const colmap::Image*> gt_images;
+  std::vector<const colmap::Image*> matched_images;
+};
+
+// Pairwise relative-pose errors of every ground-truth pair (a pair with an
+// unregistered image counts as infinitely wrong) and their AUCs.
+void EvaluatePairs(const MatchedImages& images,
+                   const ModelEvaluationOptions& options,
+                   ModelEvaluation* evaluation) {
+  const std::vector<const colmap::Image*>& gt_images = images.gt_images;
+  const std::vector<const colmap::Image*>& matched_images =
+      images.matched_images;
+  const int num_images = static_cast<int>(gt_images.size());
+  // The relative pose of j from i is
+  // R_ij = R_j R_i^T, t_ij = t_j - R_ij t_i (world-to-camera poses).
+  std::vector<Eigen::Matrix3d> gt_rotations(num_images);
+  std::vector<Eigen::Matrix3d> rotations(num_images);
+  for (int i = 0; i < num_images; ++i) {
+    gt_rotations[i] = RotationMatrix(*gt_images[i]);
+    if (matched_images[i] != nullptr) {
+      rotations[i] = RotationMatrix(*matched_images[i]);
+    }
+  }
+  std::vector<double> pair_errors_deg;
+  for (int i = 0; i < num_images; ++i) {
+    for (int j = i + 1; j < num_images; ++j) {
+      ++evaluation->num_pairs;
+      if (matched_images[i] == nullptr || matched_images[j] == nullptr) {
+        pair_errors_deg.push_back(kInf);
+        continue;
+      }
+      ++evaluation->num_registered_pairs;
+      const Eigen::Matrix3d gt_relative_rotation =
+          gt_rotations[j] * gt_rotations[i].transpose();
+      const Eigen::Vector3d gt_relative_translation =
+          gt_images[j]->Tvec() - gt_relative_rotation * gt_images[i]->Tvec();
+      const Eigen::Matrix3d relative_rotation =
+          rotations[j] * rotations[i].transpose();
+      const Eigen::Vector3d relative_translation =
+          matched_images[j]->Tvec() -
+          relative_rotation * matched_images[i]->Tvec();
+      const double rotation_error =
+          RotationErrorDeg(gt_relative_rotation, relative_rotation);
+      // Two ground-truth cameras at one place have no translation direction:
+      // only the rotation is scored. An estimate that puts two distinct
+      // cameras at one place gets the largest direction error.
+      double translation_error = 0.0;
+      if (gt_relative_translation.squaredNorm() > 0.0) {
+        translation_error = relative_translation.squaredNorm() > 0.0
+                                ? DirectionErrorDeg(gt_relative_translation,
+                                                    relative_translation)
+                                : 180.0;
+      }
+      evaluation->rotation_errors_deg.push_back(rotation_error);
+      evaluation->translation_errors_deg.push_back(translation_error);
+      evaluation->pose_errors_deg.push_back(
+          std::max(rotation_error, translation_error));
+      pair_errors_deg.push_back(evaluation->pose_errors_deg.back());
+    }
+  }
+  for (const double threshold : options.pose_auc_thresholds_deg) {
+    evaluation->pose_aucs.push_back(ComputeAuc(pair_errors_deg, threshold));
+  }
+}
+
+// Camera positions after a robust similarity alignment, their errors,
+// the cameras beyond max_position_error_fraction_of_scene and the AUCs.
+void EvaluatePositions(const MatchedImages& images,
+                       const ModelEvaluationOptions& options,
+                       ModelEvaluation* evaluation) {
+  const std::vector<const colmap::Image*>& gt_images = images.gt_images;
+  const std::vector<const colmap::Image*>& matched_images =
+      images.matched_images;
+  const int num_images = static_cast<int>(gt_images.size());
+  // The inlier threshold scales with the scene: a fraction of the median
+  // distance of the ground-truth centres from their coordinate-wise median.
+  std::vector<Eigen::Vector3d> gt_centers;
+  for (const colmap::Image* image : gt_images) {
+    gt_centers.push_back(ProjectionCenter(*image));
+  }
+  Eigen::Vector3d median_center;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> coordinates;
+    for (const Eigen::Vector3d& center : gt_centers) {
+      coordinates.push_back(center(axis));
+    }
+    median_center(axis) = Median(coordinates);
+  }
+  std::vector<double> distances_to_median;
+  for (const Eigen::Vector3d& center : gt_centers) {
+    distances_to_median.push_back((center - median_center).norm());
+  }
+  const double scene_scale = Median(distances_to_median);
+  for (size_t i = 0; i < gt_centers.size(); ++i) {
+    for (size_t j = i + 1; j < gt_centers.size(); ++j) {
+      evaluation->scene_size = std::max(evaluation->scene_size,
+                                        (gt_centers[i] - gt_centers[j]).norm());
+    }
+  }
+  const double max_position_error =
+      options.max_position_error_fraction_of_scene * evaluation->scene_size;
+  evaluation->alignment_inlier_threshold =
+      options.alignment_inlier_fraction_of_scale * scene_scale;
+
+  std::vector<Eigen::Vector3d> model_centers;
+  std::vector<Eigen::Vector3d> matched_gt_centers;
+  std::vector<std::string> matched_names;
+  for (int i = 0; i < num_images; ++i) {
+    if (matched_images[i] == nullptr) continue;
+    model_centers.push_back(ProjectionCenter(*matched_images[i]));
+    matched_gt_centers.push_back(gt_centers[i]);
+    matched_names.push_back(gt_images[i]->Name());
+  }
+  SimilarityAlignment alignment;
+  evaluation->aligned =
+      evaluation->alignment_inlier_threshold > 0.0 &&
+      EstimateSimilarityRobust(model_centers, matched_gt_centers,
+                               evaluation->alignment_inlier_threshold,
+                               options.alignment_max_num_trials,
+                               options.random_seed, &alignment)
+          .ok();
+  std::vector<double> position_errors_with_failures(
+      num_images - static_cast<int>(model_centers.size()), kInf);
+  if (evaluation->aligned) {
+    evaluation->alignment_scale = alignment.scale;
+    evaluation->alignment_rotation = alignment.rotation;
+    evaluation->alignment_translation = alignment.translation;
+    evaluation->num_alignment_inliers = alignment.num_inliers;
+    for (size_t k = 0; k < model_centers.size(); ++k) {
+      evaluation->position_errors.push_back(AlignmentResidual(
+          alignment, model_centers[k], matched_gt_centers[k]));
+      position_errors_with_failures.push_back(
+          evaluation->position_errors.back());
+      if (!(evaluation->position_errors.back() <= max_position_error)) {
+        evaluation->cameras_beyond.push_back(matched_names[k]);
+      }
+    }
+    evaluation->position_error_mean = Mean(evaluation->position_errors);
+    evaluation->position_error_median = Median(evaluation->position_errors);
+  } else {
+    position_errors_with_failures.assign(num_images, kInf);
+    evaluation->cameras_beyond = matched_names;
+    evaluation->position_error_mean = kNaN;
+    evaluation->position_error_median = kNaN;
+  }
+  evaluation->num_cameras_beyond =
+      static_cast<int>(evaluation->cameras_beyond.size());
+  for (const double threshold : options.position_auc_thresholds) {
+    evaluation->position_aucs.push_back(
+        ComputeAuc(position_errors_with_failures, threshold));
+  }
+}
+
 }  // namespace
 
 bool ModelEvaluationOptions::Check() const {
@@ -287,8 +443,9 @@ Status EvaluateModel(const colmap::Reconstruction& model,
     const colmap::Image& image = model.Image(image_id);
     model_images.emplace(image.Name(), &image);
   }
-  std::vector<const colmap::Image*> gt_images;
-  std::vector<const colmap::Image*> matched_images;
+  MatchedImages images;
+  std::vector<const colmap::Image*>& gt_images = images.gt_images;
+  std::vector<const colmap::Image*>& matched_images = images.matched_images;
   for (const colmap::image_t image_id : gt_image_ids) {
     const colmap::Image& gt_image = ground_truth.Image(image_id);
     gt_images.push_back(&gt_image);
@@ -302,135 +459,8 @@ Status EvaluateModel(const colmap::Reconstruction& model,
     if (image != nullptr) ++evaluation->num_registered;
   }
 
-  // Pairwise relative-pose errors. The relative pose of j from i is
-  // R_ij = R_j R_i^T, t_ij = t_j - R_ij t_i (world-to-camera poses).
-  std::vector<Eigen::Matrix3d> gt_rotations(num_images);
-  std::vector<Eigen::Matrix3d> rotations(num_images);
-  for (int i = 0; i < num_images; ++i) {
-    gt_rotations[i] = RotationMatrix(*gt_images[i]);
-    if (matched_images[i] != nullptr) {
-      rotations[i] = RotationMatrix(*matched_images[i]);
-    }
-  }
-  std::vector<double> pair_errors_deg;
-  for (int i = 0; i < num_images; ++i) {
-    for (int j = i + 1; j < num_images; ++j) {
-      ++evaluation->num_pairs;
-      if (matched_images[i] == nullptr || matched_images[j] == nullptr) {
-        pair_errors_deg.push_back(kInf);
-        continue;
-      }
-      ++evaluation->num_registered_pairs;
-      const Eigen::Matrix3d gt_relative_rotation =
-          gt_rotations[j] * gt_rotations[i].transpose();
-      const Eigen::Vector3d gt_relative_translation =
-          gt_images[j]->Tvec() - gt_relative_rotation * gt_images[i]->Tvec();
-      const Eigen::Matrix3d relative_rotation =
-          rotations[j] * rotations[i].transpose();
-      const Eigen::Vector3d relative_translation =
-          matched_images[j]->Tvec() -
-          relative_rotation * matched_images[i]->Tvec();
-      const double rotation_error =
-          RotationErrorDeg(gt_relative_rotation, relative_rotation);
-      // Two ground-truth cameras at one place have no translation direction:
-      // only the rotation is scored. An estimate that puts two distinct
-      // cameras at one place gets the largest direction error.
-      double translation_error = 0.0;
-      if (gt_relative_translation.squaredNorm() > 0.0) {
-        translation_error = relative_translation.squaredNorm() > 0.0
-                                ? DirectionErrorDeg(gt_relative_translation,
-                                                    relative_translation)
-                                : 180.0;
-      }
-      evaluation->rotation_errors_deg.push_back(rotation_error);
-      evaluation->translation_errors_deg.push_back(translation_error);
-      evaluation->pose_errors_deg.push_back(
-          std::max(rotation_error, translation_error));
-      pair_errors_deg.push_back(evaluation->pose_errors_deg.back());
-    }
-  }
-  for (const double threshold : options.pose_auc_thresholds_deg) {
-    evaluation->pose_aucs.push_back(ComputeAuc(pair_errors_deg, threshold));
-  }
-
-  // Camera positions after a robust similarity alignment. The inlier
-  // threshold scales with the scene: a fraction of the median distance of the
-  // ground-truth centres from their coordinate-wise median.
-  std::vector<Eigen::Vector3d> gt_centers;
-  for (const colmap::Image* image : gt_images) {
-    gt_centers.push_back(ProjectionCenter(*image));
-  }
-  Eigen::Vector3d median_center;
-  for (int axis = 0; axis < 3; ++axis) {
-    std::vector<double> coordinates;
-    for (const Eigen::Vector3d& center : gt_centers) {
-      coordinates.push_back(center(axis));
-    }
-    median_center(axis) = Median(coordinates);
-  }
-  std::vector<double> distances_to_median;
-  for (const Eigen::Vector3d& center : gt_centers) {
-    distances_to_median.push_back((center - median_center).norm());
-  }
-  const double scene_scale = Median(distances_to_median);
-  for (size_t i = 0; i < gt_centers.size(); ++i) {
-    for (size_t j = i + 1; j < gt_centers.size(); ++j) {
-      evaluation->scene_size = std::max(evaluation->scene_size,
-                                        (gt_centers[i] - gt_centers[j]).norm());
-    }
-  }
-  const double max_position_error =
-      options.max_position_error_fraction_of_scene * evaluation->scene_size;
-  evaluation->alignment_inlier_threshold =
-      options.alignment_inlier_fraction_of_scale * scene_scale;
-
-  std::vector<Eigen::Vector3d> model_centers;
-  std::vector<Eigen::Vector3d> matched_gt_centers;
-  std::vector<std::string> matched_names;
-  for (int i = 0; i < num_images; ++i) {
-    if (matched_images[i] == nullptr) continue;
-    model_centers.push_back(ProjectionCenter(*matched_images[i]));
-    matched_gt_centers.push_back(gt_centers[i]);
-    matched_names.push_back(gt_images[i]->Name());
-  }
-  SimilarityAlignment alignment;
-  evaluation->aligned =
-      evaluation->alignment_inlier_threshold > 0.0 &&
-      EstimateSimilarityRobust(model_centers, matched_gt_centers,
-                               evaluation->alignment_inlier_threshold,
-                               options.alignment_max_num_trials,
-                               options.random_seed, &alignment)
-          .ok();
-  std::vector<double> position_errors_with_failures(
-      num_images - static_cast<int>(model_centers.size()), kInf);
-  if (evaluation->aligned) {
-    evaluation->alignment_scale = alignment.scale;
-    evaluation->alignment_rotation = alignment.rotation;
-    evaluation->alignment_translation = alignment.translation;
-    evaluation->num_alignment_inliers = alignment.num_inliers;
-    for (size_t k = 0; k < model_centers.size(); ++k) {
-      evaluation->position_errors.push_back(AlignmentResidual(
-          alignment, model_centers[k], matched_gt_centers[k]));
-      position_errors_with_failures.push_back(
-          evaluation->position_errors.back());
-      if (!(evaluation->position_errors.back() <= max_position_error)) {
-        evaluation->cameras_beyond.push_back(matched_names[k]);
-      }
-    }
-    evaluation->position_error_mean = Mean(evaluation->position_errors);
-    evaluation->position_error_median = Median(evaluation->position_errors);
-  } else {
-    position_errors_with_failures.assign(num_images, kInf);
-    evaluation->cameras_beyond = matched_names;
-    evaluation->position_error_mean = kNaN;
-    evaluation->position_error_median = kNaN;
-  }
-  evaluation->num_cameras_beyond =
-      static_cast<int>(evaluation->cameras_beyond.size());
-  for (const double threshold : options.position_auc_thresholds) {
-    evaluation->position_aucs.push_back(
-        ComputeAuc(position_errors_with_failures, threshold));
-  }
+  EvaluatePairs(images, options, evaluation);
+  EvaluatePositions(images, options, evaluation);
   return Status::Ok();
 }
 

@@ -415,19 +415,54 @@ struct SmallReconstructionResult {
 // so that a group of single-image cameras has one focal that all its images
 // determine. Stops early when `interrupt` fires (the result is then not
 // used).
-SmallReconstructionResult FocalsFromSmallReconstruction(
+// The matches of the small reconstruction's pairs: valid pairs among the
+// selected images with at least multi_view_min_num_matches matches.
+using SmallPairMatches =
+    std::vector<std::pair<const ImagePair*, colmap::FeatureMatches>>;
+
+// The keypoints each image keeps (by image, one flag per keypoint): at most
+// multi_view_max_num_keypoints_per_image, those matched in the most pairs
+// (ties: the smaller index).
+std::map<colmap::image_t, std::vector<bool>> KeptKeypoints(
+    const ViewGraphCalibrationOptions& options,
+    const std::map<colmap::image_t, std::vector<int>>& num_pairs_per_keypoint) {
+  std::map<colmap::image_t, std::vector<bool>> kept;
+  for (const auto& [image_id, counts] : num_pairs_per_keypoint) {
+    std::vector<colmap::point2D_t> order(counts.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    const size_t num_kept = std::min(
+        order.size(),
+        static_cast<size_t>(options.multi_view_max_num_keypoints_per_image));
+    std::partial_sort(
+        order.begin(), order.begin() + num_kept, order.end(),
+        [&counts = counts](colmap::point2D_t a, colmap::point2D_t b) {
+          return counts[a] != counts[b] ? counts[a] > counts[b] : a < b;
+        });
+    std::vector<bool>& image_kept = kept[image_id];
+    image_kept.assign(counts.size(), false);
+    for (size_t i = 0; i < num_kept; ++i) {
+      if (counts[order[i]] > 0) image_kept[order[i]] = true;
+    }
+  }
+  return kept;
+}
+
+// Fills `cache` (the incremental mapper's input, in memory, from the view
+// graph as retriangulation does; never from the database) with the images
+// `image_ids` on their groups' cameras (free ones as FocalProxyCamera of
+// their initial camera) and the kept keypoints' correspondences of their
+// pairs, whose matches go to `matches`. False when fewer than
+// multi_view_min_num_images_per_camera images have correspondences.
+bool FillSmallCache(
     const ViewGraphCalibrationOptions& options, const ViewGraph& view_graph,
     const colmap::Reconstruction& reconstruction,
     const std::map<colmap::camera_t, colmap::Camera>& initial_cameras,
     const CameraGroups& group_of, const std::vector<colmap::image_t>& image_ids,
-    const Interrupt& interrupt) {
+    colmap::DatabaseCache* cache_out, SmallPairMatches* matches_out) {
   const size_t min_num_matches =
       static_cast<size_t>(options.multi_view_min_num_matches);
-  const size_t min_num_images_per_camera =
-      static_cast<size_t>(options.multi_view_min_num_images_per_camera);
-  // The incremental mapper needs a DatabaseCache; it is filled in memory
-  // from the view graph (as retriangulation does), never from the database.
-  colmap::DatabaseCache cache;
+  colmap::DatabaseCache& cache = *cache_out;
+  SmallPairMatches& matches = *matches_out;
   const std::unordered_set<colmap::image_t> selected(image_ids.begin(),
                                                      image_ids.end());
   for (const colmap::image_t image_id : image_ids) {
@@ -443,7 +478,6 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
     image.SetCameraId(group);
     cache.AddImage(image);  // Also adds it to the graph.
   }
-  std::vector<std::pair<const ImagePair*, colmap::FeatureMatches>> matches;
   std::map<colmap::image_t, std::vector<int>> num_pairs_per_keypoint;
   for (const colmap::image_t image_id : image_ids) {
     num_pairs_per_keypoint[image_id].assign(cache.Image(image_id).NumPoints2D(),
@@ -465,26 +499,8 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
       ++num_pairs_per_keypoint[pair.image_id2][match.point2D_idx2];
     }
   }
-  // The keypoints each image keeps: those matched in the most pairs (ties:
-  // the smaller index).
-  std::map<colmap::image_t, std::vector<bool>> kept;
-  for (auto& [image_id, counts] : num_pairs_per_keypoint) {
-    std::vector<colmap::point2D_t> order(counts.size());
-    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-    const size_t num_kept = std::min(
-        order.size(),
-        static_cast<size_t>(options.multi_view_max_num_keypoints_per_image));
-    std::partial_sort(
-        order.begin(), order.begin() + num_kept, order.end(),
-        [&counts = counts](colmap::point2D_t a, colmap::point2D_t b) {
-          return counts[a] != counts[b] ? counts[a] > counts[b] : a < b;
-        });
-    std::vector<bool>& image_kept = kept[image_id];
-    image_kept.assign(counts.size(), false);
-    for (size_t i = 0; i < num_kept; ++i) {
-      if (counts[order[i]] > 0) image_kept[order[i]] = true;
-    }
-  }
+  const std::map<colmap::image_t, std::vector<bool>> kept =
+      KeptKeypoints(options, num_pairs_per_keypoint);
   colmap::CorrespondenceGraph& graph = MutableCorrespondenceGraph(&cache);
   for (auto& [pair, pair_matches] : matches) {
     const std::vector<bool>& kept1 = kept.at(pair->image_id1);
@@ -499,92 +515,98 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
     graph.AddCorrespondences(pair->image_id1, pair->image_id2, pair_matches);
   }
   graph.Finalize();
-  if (graph.NumImages() < min_num_images_per_camera) return {};
+  if (graph.NumImages() <
+      static_cast<size_t>(options.multi_view_min_num_images_per_camera)) {
+    return false;
+  }
   for (const colmap::image_t image_id : image_ids) {
     if (!graph.ExistsImage(image_id)) continue;
     colmap::Image& image = cache.Image(image_id);
     image.SetNumObservations(graph.NumObservationsForImage(image_id));
     image.SetNumCorrespondences(graph.NumCorrespondencesForImage(image_id));
   }
+  return true;
+}
 
-  // COLMAP's mapper prints a report of every image's pose refinement to
-  // stdout (AbsolutePoseRefinementOptions::print_summary, which its
-  // IncrementalMapper does not expose); the small reconstruction is silent.
-  // No other stage runs while the view graph is calibrated.
-  struct SilenceStdout {
-    SilenceStdout() : saved(std::cout.rdbuf(nullptr)) {}
-    ~SilenceStdout() { std::cout.rdbuf(saved); }
-    std::streambuf* saved;
-  } silence_stdout;
+// COLMAP's incremental mapper on the small cache, with COLMAP's mapper
+// defaults except for the bounds of its bogus-camera test (the incremental
+// mapper drops images whose focal leaves them), which are this stage's own
+// bounds on the focal ratio around the seed camera's. One thread and a fixed
+// seed: the same input gives the same focal (the problems are small, far
+// below the size at which this project's Ceres solves use more threads, see
+// ceres_threads.h).
+class SmallMapper {
+ public:
+  SmallMapper(const ViewGraphCalibrationOptions& options,
+              const colmap::Camera& seed_camera, const Interrupt& interrupt)
+      : options_(options), interrupt_(interrupt) {
+    mapper_options_.num_threads = 1;
+    init_options_ = mapper_options_.Mapper();
+    const double seed_focal_ratio =
+        seed_camera.MeanFocalLength() /
+        std::max<double>(1.0,
+                         std::max(seed_camera.Width(), seed_camera.Height()));
+    init_options_.min_focal_length_ratio =
+        std::min(init_options_.min_focal_length_ratio,
+                 options.min_focal_ratio * seed_focal_ratio);
+    init_options_.max_focal_length_ratio =
+        std::max(init_options_.max_focal_length_ratio,
+                 options.max_focal_ratio * seed_focal_ratio);
+    tri_options_ = mapper_options_.Triangulation();
+    local_ba_ = mapper_options_.LocalBundleAdjustment();
+    global_ba_ = mapper_options_.GlobalBundleAdjustment();
+    for (colmap::BundleAdjustmentOptions* ba : {&local_ba_, &global_ba_}) {
+      ba->print_summary = false;
+      ba->solver_options.logging_type = ceres::SILENT;
+      ba->solver_options.num_threads = 1;
+    }
+  }
 
-  // COLMAP's mapper defaults, except for the bounds of its bogus-camera test
-  // (the incremental mapper drops images whose focal leaves them), which are
-  // this stage's own bounds on the focal ratio.
-  // One thread and a fixed seed: the same input gives the same focal (the
-  // problems are small, far below the size at which this project's Ceres
-  // solves use more threads, see ceres_threads.h).
-  colmap::SetPRNGSeed(0);
-  colmap::IncrementalMapperOptions mapper_options;
-  mapper_options.num_threads = 1;
-  colmap::IncrementalMapper::Options init_options = mapper_options.Mapper();
-  const colmap::Camera& seed_camera =
-      cache.Camera(cache.Image(image_ids.front()).CameraId());
-  const double seed_focal_ratio =
-      seed_camera.MeanFocalLength() /
-      std::max<double>(1.0,
-                       std::max(seed_camera.Width(), seed_camera.Height()));
-  init_options.min_focal_length_ratio =
-      std::min(init_options.min_focal_length_ratio,
-               options.min_focal_ratio * seed_focal_ratio);
-  init_options.max_focal_length_ratio =
-      std::max(init_options.max_focal_length_ratio,
-               options.max_focal_ratio * seed_focal_ratio);
-  const colmap::IncrementalTriangulator::Options tri_options =
-      mapper_options.Triangulation();
-  colmap::BundleAdjustmentOptions local_ba =
-      mapper_options.LocalBundleAdjustment();
-  colmap::BundleAdjustmentOptions global_ba =
-      mapper_options.GlobalBundleAdjustment();
-  for (colmap::BundleAdjustmentOptions* ba : {&local_ba, &global_ba}) {
-    ba->print_summary = false;
-    ba->solver_options.logging_type = ceres::SILENT;
-    ba->solver_options.num_threads = 1;
+  // The mapper options of the first relaxation level.
+  const colmap::IncrementalMapper::Options& InitOptions() const {
+    return init_options_;
+  }
+  const colmap::BundleAdjustmentOptions& GlobalBundleAdjustment() const {
+    return global_ba_;
+  }
+
+  // Tracks completed and merged, retriangulation, the global bundle
+  // adjustment and filtering (multi_view_num_global_refinements times).
+  void GlobalRefinement(colmap::IncrementalMapper* mapper,
+                        const colmap::IncrementalMapper::Options& mo) const {
+    mapper->CompleteTracks(tri_options_);
+    mapper->MergeTracks(tri_options_);
+    mapper->Retriangulate(tri_options_);
+    for (int i = 0; i < options_.multi_view_num_global_refinements; ++i) {
+      mapper->AdjustGlobalBundle(mo, global_ba_);
+      mapper->FilterPoints(mo);
+    }
+    mapper->FilterImages(mo);
   }
 
   // Registration of the other images as COLMAP's mapper does it: local
   // bundle adjustment after each image, global refinement whenever the
-  // model grew by its ba_global_images_ratio or ba_global_points_ratio (10%),
-  // when no image registers (then once more), and at the end.
-  auto global_refinement = [&](colmap::IncrementalMapper* mapper,
-                               const colmap::IncrementalMapper::Options& mo) {
-    mapper->CompleteTracks(tri_options);
-    mapper->MergeTracks(tri_options);
-    mapper->Retriangulate(tri_options);
-    for (int i = 0; i < options.multi_view_num_global_refinements; ++i) {
-      mapper->AdjustGlobalBundle(mo, global_ba);
-      mapper->FilterPoints(mo);
-    }
-    mapper->FilterImages(mo);
-  };
-  auto grow = [&](colmap::IncrementalMapper* mapper,
-                  const colmap::IncrementalMapper::Options& mo,
-                  const colmap::Reconstruction& small) {
+  // model grew by its ba_global_images_ratio or ba_global_points_ratio
+  // (10%), when no image registers (then once more), and at the end.
+  void Grow(colmap::IncrementalMapper* mapper,
+            const colmap::IncrementalMapper::Options& mo,
+            const colmap::Reconstruction& small) const {
     size_t num_images_at_refinement = small.NumRegImages();
     size_t num_points_at_refinement = small.NumPoints3D();
     bool refined_after_failure = false;
-    while (!interrupt.IsStopped()) {
+    while (!interrupt_.IsStopped()) {
       bool registered = false;
       for (const colmap::image_t image_id : mapper->FindNextImages(mo)) {
         if (!mapper->RegisterNextImage(mo, image_id)) continue;
-        mapper->TriangulateImage(tri_options, image_id);
-        mapper->AdjustLocalBundle(mo, local_ba, tri_options, image_id,
+        mapper->TriangulateImage(tri_options_, image_id);
+        mapper->AdjustLocalBundle(mo, local_ba_, tri_options_, image_id,
                                   mapper->GetModifiedPoints3D());
         mapper->ClearModifiedPoints3D();
-        if (small.NumRegImages() >= mapper_options.ba_global_images_ratio *
+        if (small.NumRegImages() >= mapper_options_.ba_global_images_ratio *
                                         num_images_at_refinement ||
-            small.NumPoints3D() >= mapper_options.ba_global_points_ratio *
+            small.NumPoints3D() >= mapper_options_.ba_global_points_ratio *
                                        num_points_at_refinement) {
-          global_refinement(mapper, mo);
+          GlobalRefinement(mapper, mo);
           num_images_at_refinement = small.NumRegImages();
           num_points_at_refinement = small.NumPoints3D();
         }
@@ -596,11 +618,52 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
         continue;
       }
       if (refined_after_failure) break;
-      global_refinement(mapper, mo);
+      GlobalRefinement(mapper, mo);
       refined_after_failure = true;
     }
-    global_refinement(mapper, mo);
-  };
+    GlobalRefinement(mapper, mo);
+  }
+
+ private:
+  const ViewGraphCalibrationOptions& options_;
+  const Interrupt& interrupt_;
+  colmap::IncrementalMapperOptions mapper_options_;
+  colmap::IncrementalMapper::Options init_options_;
+  colmap::IncrementalTriangulator::Options tri_options_;
+  colmap::BundleAdjustmentOptions local_ba_;
+  colmap::BundleAdjustmentOptions global_ba_;
+};
+
+SmallReconstructionResult FocalsFromSmallReconstruction(
+    const ViewGraphCalibrationOptions& options, const ViewGraph& view_graph,
+    const colmap::Reconstruction& reconstruction,
+    const std::map<colmap::camera_t, colmap::Camera>& initial_cameras,
+    const CameraGroups& group_of, const std::vector<colmap::image_t>& image_ids,
+    const Interrupt& interrupt) {
+  const size_t min_num_images_per_camera =
+      static_cast<size_t>(options.multi_view_min_num_images_per_camera);
+  colmap::DatabaseCache cache;
+  SmallPairMatches matches;
+  if (!FillSmallCache(options, view_graph, reconstruction, initial_cameras,
+                      group_of, image_ids, &cache, &matches)) {
+    return {};
+  }
+  // COLMAP's mapper prints a report of every image's pose refinement to
+  // stdout (AbsolutePoseRefinementOptions::print_summary, which its
+  // IncrementalMapper does not expose); the small reconstruction is silent.
+  // No other stage runs while the view graph is calibrated.
+  struct SilenceStdout {
+    SilenceStdout() : saved(std::cout.rdbuf(nullptr)) {}
+    ~SilenceStdout() { std::cout.rdbuf(saved); }
+    std::streambuf* saved;
+  } silence_stdout;
+
+  colmap::SetPRNGSeed(0);
+  const SmallMapper small_mapper(
+      options, cache.Camera(cache.Image(image_ids.front()).CameraId()),
+      interrupt);
+  const colmap::BundleAdjustmentOptions& global_ba =
+      small_mapper.GlobalBundleAdjustment();
 
   // Initial pairs as COLMAP's mapper tries them, relaxed when none is found;
   // a model that stays small (a weak initial pair) is discarded and the next
@@ -611,7 +674,7 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
                                     static_cast<double>(image_ids.size()))));
   SmallReconstructionResult result;
   size_t best_num_images = 0;
-  colmap::IncrementalMapper::Options mo = init_options;
+  colmap::IncrementalMapper::Options mo = small_mapper.InitOptions();
   for (int level = 0; level < options.multi_view_num_init_relaxations &&
                       best_num_images < enough_images;
        ++level) {
@@ -632,7 +695,7 @@ SmallReconstructionResult FocalsFromSmallReconstruction(
         mapper.FilterPoints(mo);
         mapper.FilterImages(mo);
         if (small.NumRegImages() >= 2 && small.NumPoints3D() > 0) {
-          grow(&mapper, mo, small);
+          small_mapper.Grow(&mapper, mo, small);
           VLOG(3) << "View-graph calibration: small reconstruction of "
                   << small.NumRegImages() << " of " << image_ids.size()
                   << " images, " << small.NumPoints3D() << " points.";
@@ -757,6 +820,242 @@ std::vector<colmap::camera_t> CalibrateFromSmallReconstruction(
   return calibrated;
 }
 
+// The focal problem of the fundamental matrices: one constraint per valid
+// pair with an F between cameras of which at least one has no focal prior,
+// and one unknown per calibration group, phi_g = f_g / s_g (1 at the start;
+// std::map keeps the parameter addresses stable and the order
+// deterministic), with s_g the group's reference focal.
+struct FocalProblem {
+  std::vector<PairConstraint> constraints;
+  std::map<colmap::camera_t, double> phis;
+  std::map<colmap::camera_t, double> reference_focals;
+};
+
+bool CameraIsFree(const colmap::Reconstruction& reconstruction,
+                  colmap::camera_t camera_id) {
+  return !reconstruction.Camera(camera_id).HasPriorFocalLength();
+}
+
+FocalProblem CollectConstraints(const CameraGroups& group_of,
+                                const colmap::Reconstruction& reconstruction,
+                                ViewGraph* view_graph) {
+  auto camera_is_free = [&](colmap::camera_t camera_id) {
+    return CameraIsFree(reconstruction, camera_id);
+  };
+  FocalProblem problem;
+  std::vector<PairConstraint>& constraints = problem.constraints;
+  std::map<colmap::camera_t, double>& phis = problem.phis;
+  std::map<colmap::camera_t, double>& reference_focals =
+      problem.reference_focals;
+  for (auto& [pair_id, pair] : view_graph->Pairs()) {
+    if (!pair.is_valid ||
+        (pair.config != colmap::TwoViewGeometry::CALIBRATED &&
+         pair.config != colmap::TwoViewGeometry::UNCALIBRATED)) {
+      continue;
+    }
+    if (!reconstruction.ExistsImage(pair.image_id1) ||
+        !reconstruction.ExistsImage(pair.image_id2)) {
+      continue;
+    }
+    PairConstraint constraint;
+    constraint.pair = &pair;
+    constraint.camera_id1 = reconstruction.Image(pair.image_id1).CameraId();
+    constraint.camera_id2 = reconstruction.Image(pair.image_id2).CameraId();
+    if (!reconstruction.ExistsCamera(constraint.camera_id1) ||
+        !reconstruction.ExistsCamera(constraint.camera_id2)) {
+      continue;
+    }
+    // Pairs between two cameras with priors say nothing about the unknowns;
+    // their geometry is checked by the relative-pose stage instead.
+    if (!camera_is_free(constraint.camera_id1) &&
+        !camera_is_free(constraint.camera_id2)) {
+      continue;
+    }
+    const colmap::Camera& camera1 =
+        reconstruction.Camera(constraint.camera_id1);
+    const colmap::Camera& camera2 =
+        reconstruction.Camera(constraint.camera_id2);
+    const double s1 = ReferenceFocal(camera1);
+    const double s2 = ReferenceFocal(camera2);
+    const Eigen::Vector2d pp1(camera1.PrincipalPointX(),
+                              camera1.PrincipalPointY());
+    const Eigen::Vector2d pp2(camera2.PrincipalPointX(),
+                              camera2.PrincipalPointY());
+    // A zero or rank-deficient F (no geometry stored) carries no focal
+    // information; the pair is left to the relative-pose stage.
+    if (!ComputeKruppaCoefficients(pair.F, pp1, pp2, s1, s2,
+                                   &constraint.coeffs)) {
+      continue;
+    }
+    // Cameras of one group have identical parameters, so s and the
+    // principal point are the group's.
+    const colmap::camera_t group1 = group_of.at(constraint.camera_id1);
+    const colmap::camera_t group2 = group_of.at(constraint.camera_id2);
+    reference_focals[group1] = s1;
+    reference_focals[group2] = s2;
+    phis.emplace(group1, 1.0);
+    phis.emplace(group2, 1.0);
+    constraints.push_back(constraint);
+  }
+
+  return problem;
+}
+
+// Solves the focal problem: two solves, since from the initial guess (often
+// 20-50% off) every residual lies in the flat tail of the narrow Cauchy
+// loss, where the steps stall, so a wide loss first brings the focals near
+// the optimum, and the narrow one then fits them while ignoring
+// inconsistent pairs. Cameras with a focal prior are held.
+Status SolveFocals(const ViewGraphCalibrationOptions& options,
+                   const CameraGroups& group_of,
+                   const colmap::Reconstruction& reconstruction,
+                   const Interrupt& interrupt, FocalProblem* focal_problem) {
+  auto camera_is_free = [&](colmap::camera_t camera_id) {
+    return CameraIsFree(reconstruction, camera_id);
+  };
+  std::map<colmap::camera_t, double>& phis = focal_problem->phis;
+  const std::vector<PairConstraint>& constraints = focal_problem->constraints;
+  ceres::Problem problem;
+  ceres::LossFunctionWrapper* loss = new ceres::LossFunctionWrapper(
+      new ceres::CauchyLoss(
+          std::max(options.coarse_loss_scale, options.loss_scale)),
+      ceres::TAKE_OWNERSHIP);
+  for (const PairConstraint& constraint : constraints) {
+    const colmap::camera_t group1 = group_of.at(constraint.camera_id1);
+    const colmap::camera_t group2 = group_of.at(constraint.camera_id2);
+    if (group1 == group2) {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<SharedCameraFocalCost, 2, 1>(
+              new SharedCameraFocalCost(constraint.coeffs)),
+          loss, &phis[group1]);
+    } else {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<TwoCameraFocalCost, 2, 1, 1>(
+              new TwoCameraFocalCost(constraint.coeffs)),
+          loss, &phis[group1], &phis[group2]);
+    }
+  }
+  size_t num_free_cameras = 0;
+  for (auto& [camera_id, phi] : phis) {
+    if (camera_is_free(camera_id)) {
+      ++num_free_cameras;
+      // Keeps phi^2 away from zero (relative residuals divide by it).
+      problem.SetParameterLowerBound(&phi, 0, kMinNormalisedFocal);
+    } else {
+      problem.SetParameterBlockConstant(&phi);
+    }
+  }
+
+  ceres::Solver::Options solver_options;
+  solver_options.max_num_iterations = options.max_num_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.num_threads =
+      CeresNumThreads(options.num_threads, problem.NumResidualBlocks(),
+                      options.min_residuals_per_ceres_thread);
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
+  InterruptCallback interrupt_callback(interrupt);
+  solver_options.callbacks.push_back(&interrupt_callback);
+  // One scalar per camera: dense is exact and robust for small problems
+  // (see min_num_free_cameras_sparse); large ones need the sparse structure.
+  if (num_free_cameras <
+      static_cast<size_t>(options.min_num_free_cameras_sparse)) {
+    solver_options.linear_solver_type = ceres::DENSE_QR;
+  } else if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(
+                 ceres::SUITE_SPARSE)) {
+    solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  } else if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(
+                 ceres::EIGEN_SPARSE)) {
+    solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    solver_options.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
+  } else {
+    solver_options.linear_solver_type = ceres::CGNR;
+  }
+  for (const double loss_scale :
+       {std::max(options.coarse_loss_scale, options.loss_scale),
+        options.loss_scale}) {
+    loss->Reset(new ceres::CauchyLoss(loss_scale), ceres::TAKE_OWNERSHIP);
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver_options, &problem, &summary);
+    if (interrupt.IsStopped()) return Status::Cancelled();
+    if (!summary.IsSolutionUsable()) {
+      return Status::Error("View-graph calibration failed: " + summary.message);
+    }
+  }
+
+  return Status::Ok();
+}
+
+// Accepts the plausible focals (within [min_focal_ratio, max_focal_ratio]
+// of the old one); a rejected camera keeps its old focal, which is also
+// what its pairs are judged against.
+void AcceptFocals(const ViewGraphCalibrationOptions& options,
+                  const CameraGroups& group_of, FocalProblem* focal_problem,
+                  colmap::Reconstruction* reconstruction) {
+  auto camera_is_free = [&](colmap::camera_t camera_id) {
+    return CameraIsFree(*reconstruction, camera_id);
+  };
+  const auto members = GroupMembers(group_of);
+  std::map<colmap::camera_t, double>& phis = focal_problem->phis;
+  const std::map<colmap::camera_t, double>& reference_focals =
+      focal_problem->reference_focals;
+  for (auto& [group, phi] : phis) {
+    if (!camera_is_free(group)) {
+      continue;
+    }
+    const double old_focal = reconstruction->Camera(group).MeanFocalLength();
+    const double new_focal = phi * reference_focals.at(group);
+    const double ratio = new_focal / old_focal;
+    if (!std::isfinite(ratio) || ratio < options.min_focal_ratio ||
+        ratio > options.max_focal_ratio) {
+      phi = 1.0;
+      continue;
+    }
+    VLOG(3) << "View-graph calibration: camera " << group << " ("
+            << members.at(group).size() << " identical) focal " << old_focal
+            << " -> " << new_focal << " px";
+    SetGroupFocal(members, group, new_focal, reconstruction);
+  }
+}
+
+// Judges every pair at the final focals with the equations best conditioned
+// there (the solve picked them at the initial focals), so that the decision
+// equals FundamentalMatrixFocalResiduals at the result: pairs beyond
+// max_two_view_error are invalidated. Returns their number.
+size_t InvalidateInconsistentPairs(
+    const ViewGraphCalibrationOptions& options, const CameraGroups& group_of,
+    const FocalProblem& focal_problem,
+    const colmap::Reconstruction& reconstruction) {
+  const std::map<colmap::camera_t, double>& phis = focal_problem.phis;
+  const std::map<colmap::camera_t, double>& reference_focals =
+      focal_problem.reference_focals;
+  size_t num_invalidated = 0;
+  for (const PairConstraint& constraint : focal_problem.constraints) {
+    const colmap::Camera& camera1 =
+        reconstruction.Camera(constraint.camera_id1);
+    const colmap::Camera& camera2 =
+        reconstruction.Camera(constraint.camera_id2);
+    Eigen::Vector2d residuals;
+    if (!FundamentalMatrixFocalResiduals(
+            constraint.pair->F,
+            Eigen::Vector2d(camera1.PrincipalPointX(),
+                            camera1.PrincipalPointY()),
+            Eigen::Vector2d(camera2.PrincipalPointX(),
+                            camera2.PrincipalPointY()),
+            phis.at(group_of.at(constraint.camera_id1)) *
+                reference_focals.at(group_of.at(constraint.camera_id1)),
+            phis.at(group_of.at(constraint.camera_id2)) *
+                reference_focals.at(group_of.at(constraint.camera_id2)),
+            &residuals) ||
+        !(residuals.norm() <= options.max_two_view_error)) {
+      constraint.pair->is_valid = false;
+      ++num_invalidated;
+    }
+  }
+  return num_invalidated;
+}
+
 }  // namespace
 
 Status ViewGraphCalibrationOptions::Check(const std::string& prefix) const {
@@ -830,174 +1129,31 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
       group_of.emplace(camera_id, camera_id);
     }
   }
-  const auto members = GroupMembers(group_of);
-
-  // Normalised focal phi_g = f_g / s_g per group, 1 at the start; std::map
-  // keeps the parameter addresses stable and the order deterministic.
-  std::map<colmap::camera_t, double> phis;
-  std::map<colmap::camera_t, double> reference_focals;
-  auto camera_is_free = [&](colmap::camera_t camera_id) {
-    return !reconstruction->Camera(camera_id).HasPriorFocalLength();
-  };
-
   // The free cameras as they are on entry: the small reconstruction starts
   // from them, not from the fundamental matrices' estimate.
   std::map<colmap::camera_t, colmap::Camera> initial_cameras;
   for (const auto& [camera_id, camera] : reconstruction->Cameras()) {
-    if (camera_is_free(camera_id)) initial_cameras.emplace(camera_id, camera);
+    if (CameraIsFree(*reconstruction, camera_id)) {
+      initial_cameras.emplace(camera_id, camera);
+    }
   }
 
-  std::vector<PairConstraint> constraints;
-  for (auto& [pair_id, pair] : view_graph->Pairs()) {
-    if (!pair.is_valid ||
-        (pair.config != colmap::TwoViewGeometry::CALIBRATED &&
-         pair.config != colmap::TwoViewGeometry::UNCALIBRATED)) {
-      continue;
-    }
-    if (!reconstruction->ExistsImage(pair.image_id1) ||
-        !reconstruction->ExistsImage(pair.image_id2)) {
-      continue;
-    }
-    PairConstraint constraint;
-    constraint.pair = &pair;
-    constraint.camera_id1 = reconstruction->Image(pair.image_id1).CameraId();
-    constraint.camera_id2 = reconstruction->Image(pair.image_id2).CameraId();
-    if (!reconstruction->ExistsCamera(constraint.camera_id1) ||
-        !reconstruction->ExistsCamera(constraint.camera_id2)) {
-      continue;
-    }
-    // Pairs between two cameras with priors say nothing about the unknowns;
-    // their geometry is checked by the relative-pose stage instead.
-    if (!camera_is_free(constraint.camera_id1) &&
-        !camera_is_free(constraint.camera_id2)) {
-      continue;
-    }
-    const colmap::Camera& camera1 =
-        reconstruction->Camera(constraint.camera_id1);
-    const colmap::Camera& camera2 =
-        reconstruction->Camera(constraint.camera_id2);
-    const double s1 = ReferenceFocal(camera1);
-    const double s2 = ReferenceFocal(camera2);
-    const Eigen::Vector2d pp1(camera1.PrincipalPointX(),
-                              camera1.PrincipalPointY());
-    const Eigen::Vector2d pp2(camera2.PrincipalPointX(),
-                              camera2.PrincipalPointY());
-    // A zero or rank-deficient F (no geometry stored) carries no focal
-    // information; the pair is left to the relative-pose stage.
-    if (!ComputeKruppaCoefficients(pair.F, pp1, pp2, s1, s2,
-                                   &constraint.coeffs)) {
-      continue;
-    }
-    // Cameras of one group have identical parameters, so s and the
-    // principal point are the group's.
-    const colmap::camera_t group1 = group_of.at(constraint.camera_id1);
-    const colmap::camera_t group2 = group_of.at(constraint.camera_id2);
-    reference_focals[group1] = s1;
-    reference_focals[group2] = s2;
-    phis.emplace(group1, 1.0);
-    phis.emplace(group2, 1.0);
-    constraints.push_back(constraint);
-  }
-
-  if (constraints.empty()) {
+  FocalProblem focal_problem =
+      CollectConstraints(group_of, *reconstruction, view_graph);
+  if (focal_problem.constraints.empty()) {
     CalibrateFromSmallReconstruction(options, *view_graph, initial_cameras,
                                      group_of, reconstruction, interrupt);
     return interrupt.IsStopped() ? Status::Cancelled() : Status::Ok();
   }
-
-  // Two solves: from the initial guess (often 20-50% off) every residual lies
-  // in the flat tail of the narrow Cauchy loss, where the steps stall, so a
-  // wide loss first brings the focals near the optimum, and the narrow one
-  // then fits them while ignoring inconsistent pairs.
-  ceres::Problem problem;
-  ceres::LossFunctionWrapper* loss = new ceres::LossFunctionWrapper(
-      new ceres::CauchyLoss(
-          std::max(options.coarse_loss_scale, options.loss_scale)),
-      ceres::TAKE_OWNERSHIP);
-  for (const PairConstraint& constraint : constraints) {
-    const colmap::camera_t group1 = group_of.at(constraint.camera_id1);
-    const colmap::camera_t group2 = group_of.at(constraint.camera_id2);
-    if (group1 == group2) {
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<SharedCameraFocalCost, 2, 1>(
-              new SharedCameraFocalCost(constraint.coeffs)),
-          loss, &phis[group1]);
-    } else {
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<TwoCameraFocalCost, 2, 1, 1>(
-              new TwoCameraFocalCost(constraint.coeffs)),
-          loss, &phis[group1], &phis[group2]);
-    }
+  if (const Status status = SolveFocals(options, group_of, *reconstruction,
+                                        interrupt, &focal_problem);
+      !status.ok()) {
+    return status;
   }
-  size_t num_free_cameras = 0;
-  for (auto& [camera_id, phi] : phis) {
-    if (camera_is_free(camera_id)) {
-      ++num_free_cameras;
-      // Keeps phi^2 away from zero (relative residuals divide by it).
-      problem.SetParameterLowerBound(&phi, 0, kMinNormalisedFocal);
-    } else {
-      problem.SetParameterBlockConstant(&phi);
-    }
-  }
-
-  ceres::Solver::Options solver_options;
-  solver_options.max_num_iterations = options.max_num_iterations;
-  solver_options.function_tolerance = options.function_tolerance;
-  solver_options.num_threads =
-      CeresNumThreads(options.num_threads, problem.NumResidualBlocks(),
-                      options.min_residuals_per_ceres_thread);
-  solver_options.logging_type = ceres::SILENT;
-  solver_options.minimizer_progress_to_stdout = false;
-  InterruptCallback interrupt_callback(interrupt);
-  solver_options.callbacks.push_back(&interrupt_callback);
-  // One scalar per camera: dense is exact and robust for small problems
-  // (see min_num_free_cameras_sparse); large ones need the sparse structure.
-  if (num_free_cameras <
-      static_cast<size_t>(options.min_num_free_cameras_sparse)) {
-    solver_options.linear_solver_type = ceres::DENSE_QR;
-  } else if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(
-                 ceres::SUITE_SPARSE)) {
-    solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
-  } else if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(
-                 ceres::EIGEN_SPARSE)) {
-    solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    solver_options.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
-  } else {
-    solver_options.linear_solver_type = ceres::CGNR;
-  }
-  for (const double loss_scale :
-       {std::max(options.coarse_loss_scale, options.loss_scale),
-        options.loss_scale}) {
-    loss->Reset(new ceres::CauchyLoss(loss_scale), ceres::TAKE_OWNERSHIP);
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver_options, &problem, &summary);
-    if (interrupt.IsStopped()) return Status::Cancelled();
-    if (!summary.IsSolutionUsable()) {
-      return Status::Error("View-graph calibration failed: " + summary.message);
-    }
-  }
-
-  // Accept plausible focals; a rejected camera keeps its old focal, which is
-  // also what its pairs are judged against below.
-  for (auto& [group, phi] : phis) {
-    if (!camera_is_free(group)) {
-      continue;
-    }
-    const double old_focal = reconstruction->Camera(group).MeanFocalLength();
-    const double new_focal = phi * reference_focals.at(group);
-    const double ratio = new_focal / old_focal;
-    if (!std::isfinite(ratio) || ratio < options.min_focal_ratio ||
-        ratio > options.max_focal_ratio) {
-      phi = 1.0;
-      continue;
-    }
-    VLOG(3) << "View-graph calibration: camera " << group << " ("
-            << members.at(group).size() << " identical) focal " << old_focal
-            << " -> " << new_focal << " px";
-    SetGroupFocal(members, group, new_focal, reconstruction);
-  }
-
+  AcceptFocals(options, group_of, &focal_problem, reconstruction);
+  std::map<colmap::camera_t, double>& phis = focal_problem.phis;
+  const std::map<colmap::camera_t, double>& reference_focals =
+      focal_problem.reference_focals;
   // Where the fundamental matrices do not determine the focal, a small
   // reconstruction does (see the header).
   for (const colmap::camera_t group :
@@ -1011,33 +1167,8 @@ Status CalibrateViewGraph(const ViewGraphCalibrationOptions& options,
   }
 
   if (interrupt.IsStopped()) return Status::Cancelled();
-
-  // Judge every pair at the final focals with the equations best
-  // conditioned there (the solve picked them at the initial focals), so that
-  // the decision equals FundamentalMatrixFocalResiduals at the result.
-  size_t num_invalidated = 0;
-  for (const PairConstraint& constraint : constraints) {
-    const colmap::Camera& camera1 =
-        reconstruction->Camera(constraint.camera_id1);
-    const colmap::Camera& camera2 =
-        reconstruction->Camera(constraint.camera_id2);
-    Eigen::Vector2d residuals;
-    if (!FundamentalMatrixFocalResiduals(
-            constraint.pair->F,
-            Eigen::Vector2d(camera1.PrincipalPointX(),
-                            camera1.PrincipalPointY()),
-            Eigen::Vector2d(camera2.PrincipalPointX(),
-                            camera2.PrincipalPointY()),
-            phis.at(group_of.at(constraint.camera_id1)) *
-                reference_focals.at(group_of.at(constraint.camera_id1)),
-            phis.at(group_of.at(constraint.camera_id2)) *
-                reference_focals.at(group_of.at(constraint.camera_id2)),
-            &residuals) ||
-        !(residuals.norm() <= options.max_two_view_error)) {
-      constraint.pair->is_valid = false;
-      ++num_invalidated;
-    }
-  }
+  const size_t num_invalidated = InvalidateInconsistentPairs(
+      options, group_of, focal_problem, *reconstruction);
   if (num_invalidated_pairs != nullptr) {
     *num_invalidated_pairs = num_invalidated;
   }

@@ -201,6 +201,9 @@ class Reader {
   Status ReadVerifiedPairs(ViewGraph* view_graph);
   void MoveInto(colmap::Reconstruction* reconstruction);
 
+  // What ReadVerifiedPairs skipped or changed, by kind.
+  struct PairDamage;
+
   size_t NumImages() const { return images_.size(); }
 
  private:
@@ -210,6 +213,16 @@ class Reader {
     return Status::Error("The database " + path_ + " is corrupt: " + what +
                          ".");
   }
+  // The `num_matches` matches at `match_indices` (keypoint index pairs) of
+  // `pair` that name keypoints that exist and have finite coordinates, into
+  // pair->matches; the others counted in `damage`.
+  void KeepUsableMatches(const uint32_t* match_indices, size_t num_matches,
+                         ImagePair* pair, PairDamage* damage);
+  // One warning per kind of damage: what was dropped, and how much.
+  void WarnOfDamage(const PairDamage& damage, int min_num_matches) const;
+  // The error when no pair can be used, saying whether there were none.
+  Status NoUsablePairsError(const PairDamage& damage,
+                            int min_num_matches) const;
 
   // Keypoints of one image whose coordinates are NaN or infinite: they keep
   // their index (so that the model's point2D indices stay the database's
@@ -707,6 +720,66 @@ struct PairCount {
   }
 };
 
+struct Reader::PairDamage {
+  PairCount unknown_images;
+  PairCount duplicate_rows;
+  PairCount unknown_config;
+  PairCount unusable_matrices;
+  // Pairs left with fewer than min_num_matches matches once the matches
+  // that use missing or non-finite keypoints are dropped.
+  PairCount too_few_left;
+  size_t num_out_of_range_matches = 0;
+  size_t num_pairs_out_of_range = 0;
+  size_t num_nonfinite_matches = 0;
+};
+
+// Matches may only name keypoints that exist and have finite coordinates; a
+// stale or foreign database must not make later stages index out of
+// bounds, nor bring NaN into the solvers.
+void Reader::KeepUsableMatches(const uint32_t* match_indices,
+                               size_t num_matches, ImagePair* pair,
+                               PairDamage* damage) {
+  const auto n1_it = num_points2D_.find(pair->image_id1);
+  const auto n2_it = num_points2D_.find(pair->image_id2);
+  const uint32_t num_points1 = n1_it == num_points2D_.end() ? 0 : n1_it->second;
+  const uint32_t num_points2 = n2_it == num_points2D_.end() ? 0 : n2_it->second;
+  const auto nonfinite1_it = nonfinite_keypoints_.find(pair->image_id1);
+  const auto nonfinite2_it = nonfinite_keypoints_.find(pair->image_id2);
+  NonFiniteKeypoints* nonfinite1 = nonfinite1_it == nonfinite_keypoints_.end()
+                                       ? nullptr
+                                       : &nonfinite1_it->second;
+  NonFiniteKeypoints* nonfinite2 = nonfinite2_it == nonfinite_keypoints_.end()
+                                       ? nullptr
+                                       : &nonfinite2_it->second;
+  pair->matches.reserve(num_matches);
+  size_t num_nonfinite_in_pair = 0;
+  for (size_t i = 0; i < num_matches; ++i) {
+    const uint32_t idx1 = match_indices[2 * i];
+    const uint32_t idx2 = match_indices[2 * i + 1];
+    if (idx1 >= num_points1 || idx2 >= num_points2) continue;
+    if (nonfinite1 != nullptr || nonfinite2 != nullptr) {
+      const bool nonfinite_in1 =
+          nonfinite1 != nullptr && nonfinite1->is_nonfinite[idx1];
+      const bool nonfinite_in2 =
+          nonfinite2 != nullptr && nonfinite2->is_nonfinite[idx2];
+      if (nonfinite_in1 || nonfinite_in2) {
+        if (nonfinite_in1) ++nonfinite1->num_dropped_matches;
+        if (nonfinite_in2) ++nonfinite2->num_dropped_matches;
+        ++num_nonfinite_in_pair;
+        continue;
+      }
+    }
+    pair->matches.emplace_back(idx1, idx2);
+  }
+  damage->num_nonfinite_matches += num_nonfinite_in_pair;
+  const size_t num_out_of_range =
+      num_matches - pair->matches.size() - num_nonfinite_in_pair;
+  if (num_out_of_range > 0) {
+    damage->num_out_of_range_matches += num_out_of_range;
+    ++damage->num_pairs_out_of_range;
+  }
+}
+
 Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
   StatementPtr stmt;
   Status status = Prepare(
@@ -737,16 +810,7 @@ Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
     }
     return seen_set.insert(pair_id).second;
   };
-  PairCount unknown_images;
-  PairCount duplicate_rows;
-  PairCount unknown_config;
-  PairCount unusable_matrices;
-  // Pairs left with fewer than min_num_matches matches once the matches
-  // that use missing or non-finite keypoints are dropped.
-  PairCount too_few_left;
-  size_t num_out_of_range_matches = 0;
-  size_t num_pairs_out_of_range = 0;
-  size_t num_nonfinite_matches = 0;
+  PairDamage damage;
   std::vector<uint32_t> blob_values;
   int rc;
   while ((rc = sqlite3_step(stmt.get())) == SQLITE_ROW) {
@@ -764,9 +828,9 @@ Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
     if (image1 == images_.end() || image2 == images_.end()) {
       // Pairs with an image that is left out are no damage of their own.
       if (!valid_ids || !is_known(id1) || !is_known(id2)) {
-        unknown_images.Add("pair id " + std::to_string(pair_id) +
-                           ": image ids " + std::to_string(id1) + " and " +
-                           std::to_string(id2));
+        damage.unknown_images.Add("pair id " + std::to_string(pair_id) +
+                                  ": image ids " + std::to_string(id1) +
+                                  " and " + std::to_string(id2));
       }
       continue;
     }
@@ -776,14 +840,15 @@ Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
     };
     // The first row of a repeated pair is the one COLMAP reads.
     if (!first_time(std::min(id1, id2) * kPairIdFactor + std::max(id1, id2))) {
-      duplicate_rows.Add(pair_text());
+      damage.duplicate_rows.Add(pair_text());
       continue;
     }
 
     const int64_t config = sqlite3_column_int64(row, 4);
     if (config < TwoViewGeometry::UNDEFINED ||
         config > TwoViewGeometry::MULTIPLE) {
-      unknown_config.Add(pair_text() + ": config " + std::to_string(config));
+      damage.unknown_config.Add(pair_text() + ": config " +
+                                std::to_string(config));
       continue;
     }
     if (config == TwoViewGeometry::UNDEFINED ||
@@ -821,56 +886,14 @@ Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
       }
       has_unusable_matrix |= read == MatrixBlob::kUnusable;
     }
-    if (has_unusable_matrix) unusable_matrices.Add(pair_text());
+    if (has_unusable_matrix) damage.unusable_matrices.Add(pair_text());
 
-    // Matches may only name keypoints that exist and have finite
-    // coordinates; a stale or foreign database must not make later stages
-    // index out of bounds, nor bring NaN into the solvers.
-    const auto n1_it = num_points2D_.find(pair.image_id1);
-    const auto n2_it = num_points2D_.find(pair.image_id2);
-    const uint32_t num_points1 =
-        n1_it == num_points2D_.end() ? 0 : n1_it->second;
-    const uint32_t num_points2 =
-        n2_it == num_points2D_.end() ? 0 : n2_it->second;
-    const auto nonfinite1_it = nonfinite_keypoints_.find(pair.image_id1);
-    const auto nonfinite2_it = nonfinite_keypoints_.find(pair.image_id2);
-    NonFiniteKeypoints* nonfinite1 = nonfinite1_it == nonfinite_keypoints_.end()
-                                         ? nullptr
-                                         : &nonfinite1_it->second;
-    NonFiniteKeypoints* nonfinite2 = nonfinite2_it == nonfinite_keypoints_.end()
-                                         ? nullptr
-                                         : &nonfinite2_it->second;
     blob_values.resize(static_cast<size_t>(rows * 2));
     std::memcpy(blob_values.data(), blob, static_cast<size_t>(num_bytes));
-    pair.matches.reserve(static_cast<size_t>(rows));
-    size_t num_nonfinite_in_pair = 0;
-    for (int64_t i = 0; i < rows; ++i) {
-      const uint32_t idx1 = blob_values[2 * i];
-      const uint32_t idx2 = blob_values[2 * i + 1];
-      if (idx1 >= num_points1 || idx2 >= num_points2) continue;
-      if (nonfinite1 != nullptr || nonfinite2 != nullptr) {
-        const bool nonfinite_in1 =
-            nonfinite1 != nullptr && nonfinite1->is_nonfinite[idx1];
-        const bool nonfinite_in2 =
-            nonfinite2 != nullptr && nonfinite2->is_nonfinite[idx2];
-        if (nonfinite_in1 || nonfinite_in2) {
-          if (nonfinite_in1) ++nonfinite1->num_dropped_matches;
-          if (nonfinite_in2) ++nonfinite2->num_dropped_matches;
-          ++num_nonfinite_in_pair;
-          continue;
-        }
-      }
-      pair.matches.emplace_back(idx1, idx2);
-    }
-    num_nonfinite_matches += num_nonfinite_in_pair;
-    const size_t num_out_of_range =
-        static_cast<size_t>(rows) - pair.matches.size() - num_nonfinite_in_pair;
-    if (num_out_of_range > 0) {
-      num_out_of_range_matches += num_out_of_range;
-      ++num_pairs_out_of_range;
-    }
+    KeepUsableMatches(blob_values.data(), static_cast<size_t>(rows), &pair,
+                      &damage);
     if (pair.matches.size() < static_cast<size_t>(min_num_matches)) {
-      too_few_left.Add(pair_text());
+      damage.too_few_left.Add(pair_text());
       continue;
     }
 
@@ -882,41 +905,49 @@ Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
   }
   if (rc != SQLITE_DONE) return StepError("two-view geometries");
 
-  // One warning per kind of damage: what was dropped, and how much.
-  if (unknown_images.num_pairs > 0) {
-    LOG(WARNING) << "Ignored "
-                 << CountOf(unknown_images.num_pairs, "verified pair") << " in "
-                 << path_
-                 << " that do not name two images of the database (e.g. "
-                 << unknown_images.example << ").";
+  WarnOfDamage(damage, min_num_matches);
+  if (view_graph->NumPairs() == 0) {
+    return NoUsablePairsError(damage, min_num_matches);
   }
-  if (duplicate_rows.num_pairs > 0) {
+  return Status::Ok();
+}
+
+void Reader::WarnOfDamage(const PairDamage& damage, int min_num_matches) const {
+  if (damage.unknown_images.num_pairs > 0) {
     LOG(WARNING) << "Ignored "
-                 << CountOf(duplicate_rows.num_pairs, "repeated row")
+                 << CountOf(damage.unknown_images.num_pairs, "verified pair")
+                 << " in " << path_
+                 << " that do not name two images of the database (e.g. "
+                 << damage.unknown_images.example << ").";
+  }
+  if (damage.duplicate_rows.num_pairs > 0) {
+    LOG(WARNING) << "Ignored "
+                 << CountOf(damage.duplicate_rows.num_pairs, "repeated row")
                  << " of two_view_geometries in " << path_ << " (e.g. "
-                 << duplicate_rows.example
+                 << damage.duplicate_rows.example
                  << "); the first row of each pair is used, as COLMAP does.";
   }
-  if (unknown_config.num_pairs > 0) {
+  if (damage.unknown_config.num_pairs > 0) {
     LOG(WARNING) << "Ignored "
-                 << CountOf(unknown_config.num_pairs, "verified pair") << " in "
-                 << path_
+                 << CountOf(damage.unknown_config.num_pairs, "verified pair")
+                 << " in " << path_
                  << " whose config is not a COLMAP two-view geometry type "
                     "(0 to 8; e.g. "
-                 << unknown_config.example << ").";
+                 << damage.unknown_config.example << ").";
   }
-  if (unusable_matrices.num_pairs > 0) {
+  if (damage.unusable_matrices.num_pairs > 0) {
     LOG(WARNING) << "Ignored the stored F, E or H of "
-                 << CountOf(unusable_matrices.num_pairs, "verified pair")
+                 << CountOf(damage.unusable_matrices.num_pairs, "verified pair")
                  << " in " << path_ << " (NULL, empty or not finite; e.g. "
-                 << unusable_matrices.example
+                 << damage.unusable_matrices.example
                  << "): their inlier matches are used, and their relative "
                     "poses estimated from them as for every pair.";
   }
-  if (num_out_of_range_matches > 0) {
+  if (damage.num_out_of_range_matches > 0) {
     LOG(WARNING) << "Dropped "
-                 << CountOf(num_out_of_range_matches, "match", "matches")
-                 << " in " << CountOf(num_pairs_out_of_range, "image pair")
+                 << CountOf(damage.num_out_of_range_matches, "match", "matches")
+                 << " in "
+                 << CountOf(damage.num_pairs_out_of_range, "image pair")
                  << " of " << path_
                  << " whose keypoint indices are out of range.";
   }
@@ -931,7 +962,8 @@ Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
       LOG(WARNING) << "... and "
                    << nonfinite_image_ids.size() - kMaxNamedWarnings
                    << " more images with non-finite keypoints ("
-                   << num_nonfinite_matches << " matches dropped in all).";
+                   << damage.num_nonfinite_matches
+                   << " matches dropped in all).";
       break;
     }
     const NonFiniteKeypoints& nonfinite = nonfinite_keypoints_.at(image_id);
@@ -944,30 +976,31 @@ Status Reader::ReadVerifiedPairs(ViewGraph* view_graph) {
                             "verified matches")
                  << " that use them.";
   }
-  if (too_few_left.num_pairs > 0) {
+  if (damage.too_few_left.num_pairs > 0) {
     LOG(WARNING) << "Ignored "
-                 << CountOf(too_few_left.num_pairs, "verified pair") << " in "
-                 << path_ << " left with fewer than " << min_num_matches
-                 << " usable matches (e.g. " << too_few_left.example << ").";
+                 << CountOf(damage.too_few_left.num_pairs, "verified pair")
+                 << " in " << path_ << " left with fewer than "
+                 << min_num_matches << " usable matches (e.g. "
+                 << damage.too_few_left.example << ").";
   }
+}
 
-  if (view_graph->NumPairs() == 0) {
-    const size_t num_unusable = unknown_images.num_pairs +
-                                unknown_config.num_pairs +
-                                too_few_left.num_pairs;
-    const std::string message = "The database " + path_ +
-                                " has no verified image pairs with at least " +
-                                std::to_string(min_num_matches) + " matches";
-    if (num_unusable == 0) {
-      return Status::Error(message + ": run a matcher first.");
-    }
-    return Status::Error(message + " that can be used (" +
-                         (num_unusable == 1
-                              ? std::string("1 pair was")
-                              : std::to_string(num_unusable) + " pairs were") +
-                         " left out as unusable, see the warnings above).");
+Status Reader::NoUsablePairsError(const PairDamage& damage,
+                                  int min_num_matches) const {
+  const size_t num_unusable = damage.unknown_images.num_pairs +
+                              damage.unknown_config.num_pairs +
+                              damage.too_few_left.num_pairs;
+  const std::string message = "The database " + path_ +
+                              " has no verified image pairs with at least " +
+                              std::to_string(min_num_matches) + " matches";
+  if (num_unusable == 0) {
+    return Status::Error(message + ": run a matcher first.");
   }
-  return Status::Ok();
+  return Status::Error(message + " that can be used (" +
+                       (num_unusable == 1
+                            ? std::string("1 pair was")
+                            : std::to_string(num_unusable) + " pairs were") +
+                       " left out as unusable, see the warnings above).");
 }
 
 void Reader::MoveInto(colmap::Reconstruction* reconstruction) {

@@ -27,45 +27,46 @@ Status TrackEstablishmentOptions::Check(const std::string& prefix) const {
   return check.status();
 }
 
-TrackStore EstablishTracks(const TrackEstablishmentOptions& options,
-                           const ViewGraph& view_graph,
-                           const colmap::Reconstruction& reconstruction,
-                           size_t* num_inconsistent_tracks) {
-  if (num_inconsistent_tracks != nullptr) *num_inconsistent_tracks = 0;
-  TrackStore tracks;
-  if (const Status check = options.Check(); !check.ok()) {
-    LOG(ERROR) << "Invalid track options: " << check.message();
-    return tracks;
-  }
+namespace {
 
-  // Dense feature index = offset of the image (registered images in id
-  // order) + point2D_idx, so that the union-find needs no hash map.
-  std::vector<colmap::image_t> image_ids = reconstruction.RegImageIds();
-  std::sort(image_ids.begin(), image_ids.end());
+// Dense feature indices: the offset of the image (registered images in id
+// order) + point2D_idx, so that the union-find needs no hash map.
+struct FeatureIndex {
+  std::vector<colmap::image_t> image_ids;
   std::unordered_map<colmap::image_t, size_t> image_idx_of_id;
-  std::vector<uint64_t> feature_offsets(image_ids.size() + 1, 0);
-  for (size_t i = 0; i < image_ids.size(); ++i) {
-    image_idx_of_id[image_ids[i]] = i;
-    feature_offsets[i + 1] =
-        feature_offsets[i] + reconstruction.Image(image_ids[i]).NumPoints2D();
-  }
-  if (feature_offsets.back() >= std::numeric_limits<uint32_t>::max()) {
-    LOG(ERROR) << "Too many keypoints for track establishment: "
-               << feature_offsets.back();
-    return tracks;
-  }
-  const uint32_t num_features = static_cast<uint32_t>(feature_offsets.back());
+  // Image i's features are [feature_offsets[i], feature_offsets[i + 1]).
+  std::vector<uint64_t> feature_offsets;
 
-  // The root of a track is its smallest feature whatever order the pairs
-  // come in; uint32_t indices halve the memory of this per-keypoint array.
+  explicit FeatureIndex(const colmap::Reconstruction& reconstruction)
+      : image_ids(reconstruction.RegImageIds()) {
+    std::sort(image_ids.begin(), image_ids.end());
+    feature_offsets.assign(image_ids.size() + 1, 0);
+    for (size_t i = 0; i < image_ids.size(); ++i) {
+      image_idx_of_id[image_ids[i]] = i;
+      feature_offsets[i + 1] =
+          feature_offsets[i] + reconstruction.Image(image_ids[i]).NumPoints2D();
+    }
+  }
+  uint64_t NumFeatures() const { return feature_offsets.back(); }
+};
+
+// (root, feature) for every feature in a valid pair's inlier match, sorted:
+// each track lies contiguously, its features in (image id, point2D_idx)
+// order. The root of a track is its smallest feature whatever order the
+// pairs come in; uint32_t indices halve the memory of the per-keypoint
+// arrays.
+std::vector<std::pair<uint32_t, uint32_t>> JoinMatchedFeatures(
+    const ViewGraph& view_graph, const FeatureIndex& index) {
+  const uint32_t num_features = static_cast<uint32_t>(index.NumFeatures());
+  const std::vector<uint64_t>& feature_offsets = index.feature_offsets;
   UnionFind<uint32_t> union_find(num_features);
   std::vector<uint8_t> is_matched(num_features, 0);
   for (const auto& [pair_id, pair] : view_graph.Pairs()) {
     if (!pair.is_valid) continue;
-    const auto image_idx1 = image_idx_of_id.find(pair.image_id1);
-    const auto image_idx2 = image_idx_of_id.find(pair.image_id2);
-    if (image_idx1 == image_idx_of_id.end() ||
-        image_idx2 == image_idx_of_id.end()) {
+    const auto image_idx1 = index.image_idx_of_id.find(pair.image_id1);
+    const auto image_idx2 = index.image_idx_of_id.find(pair.image_id2);
+    if (image_idx1 == index.image_idx_of_id.end() ||
+        image_idx2 == index.image_idx_of_id.end()) {
       continue;
     }
     const uint64_t offset1 = feature_offsets[image_idx1->second];
@@ -93,8 +94,6 @@ TrackStore EstablishTracks(const TrackEstablishmentOptions& options,
     }
   }
 
-  // Sort-by-root: (root, feature) for every matched feature groups each track
-  // contiguously, its features in (image id, point2D_idx) order.
   std::vector<std::pair<uint32_t, uint32_t>> root_and_feature;
   for (uint32_t feature = 0; feature < num_features; ++feature) {
     if (is_matched[feature]) {
@@ -103,12 +102,35 @@ TrackStore EstablishTracks(const TrackEstablishmentOptions& options,
   }
   is_matched = std::vector<uint8_t>();
   std::sort(root_and_feature.begin(), root_and_feature.end());
+  return root_and_feature;
+}
 
-  // Candidate tracks (consistent, length within bounds) in flat arrays.
-  std::vector<TrackObservation> candidate_observations;
-  std::vector<uint64_t> candidate_offsets = {0};
-  std::vector<size_t> candidate_image_idxs;  // Parallel to the observations.
+// Candidate tracks (consistent, length within bounds) in flat arrays.
+struct CandidateTracks {
+  std::vector<TrackObservation> observations;
+  // Candidate k's observations are [offsets[k], offsets[k + 1]).
+  std::vector<uint64_t> offsets = {0};
+  std::vector<size_t> image_idxs;  // Parallel to the observations.
   size_t num_inconsistent = 0;
+
+  size_t NumTracks() const { return offsets.size() - 1; }
+  uint64_t Length(size_t k) const { return offsets[k + 1] - offsets[k]; }
+};
+
+// The groups of `root_and_feature` whose features within one image lie
+// within max_intra_image_distance_px of each other and that see
+// [min_num_views_per_track, max_num_views_per_track] images.
+CandidateTracks MakeCandidates(
+    const TrackEstablishmentOptions& options,
+    const colmap::Reconstruction& reconstruction, const FeatureIndex& index,
+    const std::vector<std::pair<uint32_t, uint32_t>>& root_and_feature) {
+  const std::vector<colmap::image_t>& image_ids = index.image_ids;
+  const std::vector<uint64_t>& feature_offsets = index.feature_offsets;
+  CandidateTracks candidates;
+  std::vector<TrackObservation>& candidate_observations =
+      candidates.observations;
+  std::vector<size_t>& candidate_image_idxs = candidates.image_idxs;
+  size_t& num_inconsistent = candidates.num_inconsistent;
   const double max_squared_distance_px =
       options.max_intra_image_distance_px * options.max_intra_image_distance_px;
   for (size_t begin = 0; begin < root_and_feature.size();) {
@@ -162,32 +184,33 @@ TrackStore EstablishTracks(const TrackEstablishmentOptions& options,
       candidate_observations.resize(track_begin);
       candidate_image_idxs.resize(track_begin);
     } else {
-      candidate_offsets.push_back(candidate_observations.size());
+      candidates.offsets.push_back(candidate_observations.size());
     }
     begin = end;
   }
-  root_and_feature = std::vector<std::pair<uint32_t, uint32_t>>();
-  if (num_inconsistent_tracks != nullptr) {
-    *num_inconsistent_tracks = num_inconsistent;
-  }
+  return candidates;
+}
 
-  // Longest tracks first: they constrain the most cameras per unknown point.
-  const size_t num_candidates = candidate_offsets.size() - 1;
-  auto candidate_length = [&](size_t idx) {
-    return candidate_offsets[idx + 1] - candidate_offsets[idx];
-  };
-  std::vector<size_t> order(num_candidates);
+// Longest tracks first (they constrain the most cameras per unknown point),
+// at most max_num_tracks; with min_num_tracks_per_view, only tracks that
+// see an image with fewer than that many selected tracks, until every image
+// has that many. Returns candidate indices.
+std::vector<size_t> SelectTracks(const TrackEstablishmentOptions& options,
+                                 const CandidateTracks& candidates,
+                                 size_t num_images) {
+  std::vector<size_t> order(candidates.NumTracks());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return candidate_length(a) > candidate_length(b);
+    return candidates.Length(a) > candidates.Length(b);
   });
-
+  const std::vector<uint64_t>& candidate_offsets = candidates.offsets;
+  const std::vector<size_t>& candidate_image_idxs = candidates.image_idxs;
   const bool has_quota = options.min_num_tracks_per_view >= 0;
   const size_t quota = has_quota ? options.min_num_tracks_per_view : 0;
-  std::vector<size_t> num_tracks_per_image(image_ids.size(), 0);
+  std::vector<size_t> num_tracks_per_image(num_images, 0);
   size_t num_unsatisfied_images = 0;
   if (has_quota) {
-    std::vector<uint8_t> is_in_candidate(image_ids.size(), 0);
+    std::vector<uint8_t> is_in_candidate(num_images, 0);
     for (const size_t image_idx : candidate_image_idxs) {
       is_in_candidate[image_idx] = 1;
     }
@@ -219,14 +242,43 @@ TrackStore EstablishTracks(const TrackEstablishmentOptions& options,
     selected.push_back(idx);
   }
 
+  return selected;
+}
+
+}  // namespace
+
+TrackStore EstablishTracks(const TrackEstablishmentOptions& options,
+                           const ViewGraph& view_graph,
+                           const colmap::Reconstruction& reconstruction,
+                           size_t* num_inconsistent_tracks) {
+  if (num_inconsistent_tracks != nullptr) *num_inconsistent_tracks = 0;
+  TrackStore tracks;
+  if (const Status check = options.Check(); !check.ok()) {
+    LOG(ERROR) << "Invalid track options: " << check.message();
+    return tracks;
+  }
+  const FeatureIndex index(reconstruction);
+  if (index.NumFeatures() >= std::numeric_limits<uint32_t>::max()) {
+    LOG(ERROR) << "Too many keypoints for track establishment: "
+               << index.NumFeatures();
+    return tracks;
+  }
+  CandidateTracks candidates = MakeCandidates(
+      options, reconstruction, index, JoinMatchedFeatures(view_graph, index));
+  if (num_inconsistent_tracks != nullptr) {
+    *num_inconsistent_tracks = candidates.num_inconsistent;
+  }
+  const std::vector<size_t> selected =
+      SelectTracks(options, candidates, index.image_ids.size());
   size_t num_selected_observations = 0;
   for (const size_t idx : selected) {
-    num_selected_observations += candidate_length(idx);
+    num_selected_observations += candidates.Length(idx);
   }
   tracks.Reserve(selected.size(), num_selected_observations);
   for (const size_t idx : selected) {
-    tracks.AddTrack(candidate_observations.data() + candidate_offsets[idx],
-                    candidate_observations.data() + candidate_offsets[idx + 1]);
+    tracks.AddTrack(
+        candidates.observations.data() + candidates.offsets[idx],
+        candidates.observations.data() + candidates.offsets[idx + 1]);
   }
   return tracks;
 }
