@@ -32,7 +32,10 @@ GlobalMapperOptionsDialog::GlobalMapperOptionsDialog(
 
   group_list_ = new QListWidget(this);
   QStackedWidget* pages = new QStackedWidget(this);
-  QFormLayout* page_layout = nullptr;
+  // Per stage, a page: its basic options, then a box of its advanced ones.
+  QVBoxLayout* page_layout = nullptr;
+  QFormLayout* basic_form = nullptr;
+  QFormLayout* advanced_form = nullptr;
   std::string current_group;
   for (const glomap::GlobalMapperOptionEntry& entry :
        glomap::GlobalMapperOptionTable(&edited_)) {
@@ -40,12 +43,30 @@ GlobalMapperOptionsDialog::GlobalMapperOptionsDialog(
       current_group = entry.group;
       group_list_->addItem(QString::fromStdString(entry.group));
       QWidget* page = new QWidget();
-      page_layout = new QFormLayout(page);
-      page_layout->setFieldGrowthPolicy(QFormLayout::ExpandingFieldsGrow);
+      page_layout = new QVBoxLayout(page);
+      QWidget* basic_part = new QWidget(page);
+      basic_form = new QFormLayout(basic_part);
+      basic_form->setContentsMargins(0, 0, 0, 0);
+      basic_form->setFieldGrowthPolicy(QFormLayout::ExpandingFieldsGrow);
+      page_layout->addWidget(basic_part);
+      page_layout->addStretch(1);
+      advanced_form = nullptr;
+      advanced_boxes_.push_back(nullptr);
+      group_has_basic_.push_back(false);
       QScrollArea* scroll = new QScrollArea(pages);
       scroll->setWidgetResizable(true);
       scroll->setWidget(page);
       pages->addWidget(scroll);
+    }
+    const bool basic = entry.tier == glomap::GlobalMapperOptionTier::kBasic;
+    if (basic) {
+      group_has_basic_.back() = true;
+    } else if (advanced_form == nullptr) {
+      QGroupBox* box = new QGroupBox(tr("Advanced"));
+      advanced_form = new QFormLayout(box);
+      advanced_form->setFieldGrowthPolicy(QFormLayout::ExpandingFieldsGrow);
+      page_layout->insertWidget(1, box);
+      advanced_boxes_.back() = box;
     }
 
     QWidget* editor = std::visit(
@@ -71,13 +92,22 @@ GlobalMapperOptionsDialog::GlobalMapperOptionsDialog(
     editor->setToolTip(tool_tip);
     QLabel* label = new QLabel(QString::fromStdString(entry.key), this);
     label->setToolTip(tool_tip);
-    page_layout->addRow(label, editor);
-    rows_.push_back({entry, editor});
+    (basic ? basic_form : advanced_form)->addRow(label, editor);
+    rows_.push_back({entry, editor, group_list_->count() - 1});
   }
   group_list_->setMaximumWidth(group_list_->sizeHintForColumn(0) + 24);
   connect(group_list_, &QListWidget::currentRowChanged, pages,
           &QStackedWidget::setCurrentIndex);
   group_list_->setCurrentRow(0);
+
+  advanced_toggle_ = new QCheckBox(tr("Advanced"), this);
+  advanced_toggle_->setToolTip(
+      tr("Show also the advanced options: solver and stage details (those of "
+         "colmap global_mapper --help_all). Their values are kept and "
+         "applied whether they are shown or not."));
+  connect(advanced_toggle_, &QCheckBox::toggled, this,
+          [this](bool checked) { ShowAdvanced(checked); });
+  ShowAdvanced(false);
 
   QDialogButtonBox* buttons =
       new QDialogButtonBox(QDialogButtonBox::Ok | QDialogButtonBox::Cancel |
@@ -96,10 +126,43 @@ GlobalMapperOptionsDialog::GlobalMapperOptionsDialog(
   QHBoxLayout* body = new QHBoxLayout();
   body->addWidget(group_list_);
   body->addWidget(pages, 1);
+  QHBoxLayout* bottom = new QHBoxLayout();
+  bottom->addWidget(advanced_toggle_);
+  bottom->addWidget(buttons, 1);
   QVBoxLayout* layout = new QVBoxLayout(this);
   layout->addLayout(body);
-  layout->addWidget(buttons);
+  layout->addLayout(bottom);
   resize(640, 480);
+}
+
+void GlobalMapperOptionsDialog::ShowAdvanced(bool show) {
+  for (size_t i = 0; i < advanced_boxes_.size(); ++i) {
+    if (advanced_boxes_[i] != nullptr) advanced_boxes_[i]->setVisible(show);
+    group_list_->item(static_cast<int>(i))
+        ->setHidden(!show && !group_has_basic_[i]);
+  }
+  QListWidgetItem* current = group_list_->currentItem();
+  if (current == nullptr || current->isHidden()) group_list_->setCurrentRow(0);
+}
+
+bool GlobalMapperOptionsDialog::ShowOption(const std::string& key) {
+  for (const Row& row : rows_) {
+    if (row.entry.key != key) continue;
+    if (row.entry.tier != glomap::GlobalMapperOptionTier::kBasic) {
+      advanced_toggle_->setChecked(true);
+    }
+    group_list_->setCurrentRow(row.group_index);
+    for (QWidget* parent = row.editor->parentWidget(); parent != nullptr;
+         parent = parent->parentWidget()) {
+      if (QScrollArea* scroll = qobject_cast<QScrollArea*>(parent)) {
+        scroll->ensureWidgetVisible(row.editor);
+        break;
+      }
+    }
+    row.editor->setFocus();
+    return true;
+  }
+  return false;
 }
 
 QStringList GlobalMapperOptionsDialog::Groups() const {
@@ -164,14 +227,22 @@ bool GlobalMapperOptionsDialog::Apply() {
   // without an editor (image_path, the image list) keep their values.
   const std::vector<std::string> invalid_keys = WriteValues();
   if (!invalid_keys.empty()) {
+    ShowOption(invalid_keys.front());
     QMessageBox::critical(this, windowTitle(),
                           QString::fromStdString("Not a number: GlobalMapper." +
                                                  invalid_keys.front()));
     return false;
   }
   if (const glomap::Status check = edited_.Check(); !check.ok()) {
-    QMessageBox::critical(this, windowTitle(),
-                          QString::fromStdString(check.message()));
+    // The message starts with the option's name: "GlobalMapper.<key> must
+    // be ..."; options that are not in the dialog are not shown.
+    const std::string& message = check.message();
+    const std::string prefix = "GlobalMapper.";
+    if (message.rfind(prefix, 0) == 0) {
+      ShowOption(
+          message.substr(prefix.size(), message.find(' ') - prefix.size()));
+    }
+    QMessageBox::critical(this, windowTitle(), QString::fromStdString(message));
     return false;
   }
   *options_ = edited_;

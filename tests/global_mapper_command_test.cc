@@ -14,6 +14,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <regex>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -80,7 +81,7 @@ TEST(GlobalMapperCommand, HelpListsEveryGroup) {
        {"--database_path", "--image_path", "--output_path", "--project_path",
         "--GlobalMapper.min_num_matches", "--GlobalMapper.random_seed",
         "--GlobalMapper.ra_max_rotation_error_deg",
-        "--GlobalMapper.gp_loss_scale", "--GlobalMapper.ba_num_rounds",
+        "--GlobalMapper.gp_max_num_iterations", "--GlobalMapper.ba_num_rounds",
         "--GlobalMapper.tri_min_angle_deg",
         "--GlobalMapper.use_position_priors", "--GlobalMapper.prior_is_gps",
         "--GlobalMapper.prior_use_ecef", "--GlobalMapper.prior_position_std_m",
@@ -88,6 +89,138 @@ TEST(GlobalMapperCommand, HelpListsEveryGroup) {
         "--GlobalMapper.prior_max_error_std"}) {
     EXPECT_NE(output.find(key), std::string::npos) << key;
   }
+}
+
+// The GlobalMapper.* options of a help text, in order, each with its help
+// (whitespace collapsed to single spaces, as it is in the option table).
+std::vector<std::pair<std::string, std::string>> HelpOptions(
+    const std::string& help) {
+  std::vector<std::pair<std::string, std::string>> options;
+  std::istringstream lines(help);
+  std::string line;
+  bool in_option = false;
+  while (std::getline(lines, line)) {
+    // An option starts its line ("  --name arg (=default)  help"); its help
+    // goes on in lines that start with more spaces.
+    if (line.rfind("  --", 0) == 0) {
+      in_option = line.rfind("  --GlobalMapper.", 0) == 0;
+      if (!in_option) continue;
+      std::istringstream words(line);
+      std::string name, arg, value;
+      words >> name >> arg >> value;  // "--GlobalMapper.key" "arg" "(=x)"
+      options.emplace_back(name.substr(std::strlen("--GlobalMapper.")), "");
+      line = line.substr(line.find(value) + value.size());
+    } else if (!in_option || line.rfind("   ", 0) != 0) {
+      in_option = false;
+      continue;
+    }
+    std::istringstream words(line);
+    std::string word;
+    while (words >> word) {
+      std::string& text = options.back().second;
+      text += (text.empty() ? "" : " ") + word;
+    }
+  }
+  return options;
+}
+
+// The keys of GlobalMapperOptionTable as its source declares them
+// (b.Basic("key", ...) or b.Advanced("key", ...)), in order.
+std::vector<std::string> TableKeys(const std::string& tier) {
+  std::ifstream file(std::string(GLOMAP_SOURCE_DIR) +
+                     "/src/colmap_ext/global_mapper_options.cc");
+  const std::string source((std::istreambuf_iterator<char>(file)),
+                           std::istreambuf_iterator<char>());
+  std::vector<std::string> keys;
+  const std::regex call("b\\.(Basic|Advanced)\\(\\s*\"([A-Za-z0-9_]+)\"");
+  for (auto it = std::sregex_iterator(source.begin(), source.end(), call);
+       it != std::sregex_iterator(); ++it) {
+    if (tier.empty() || (*it)[1] == tier) keys.push_back((*it)[2]);
+  }
+  return keys;
+}
+
+std::vector<std::string> Keys(
+    const std::vector<std::pair<std::string, std::string>>& options) {
+  std::vector<std::string> keys;
+  for (const auto& option : options) keys.push_back(option.first);
+  return keys;
+}
+
+// Issue 30: `-h` lists COLMAP's general options and the basic GlobalMapper.*
+// options, at most 45, each with its unit and range: its help ends with a
+// bracket that states them ("[deg, > 0]", "[px, > 0]", "[0 to 1]", "[0 or
+// 1]", "[threads; -1: all cores, or >= 1]"): a bound (a digit) or, for the
+// seed, "any integer". Its last line names `--help_all` and how many more
+// options that lists.
+TEST(GlobalMapperCommand, HelpListsTheBasicOptionsWithUnitAndRange) {
+  std::string help;
+  ASSERT_EQ(RunCommand(ColmapExecutable() + " global_mapper -h", &help), 0)
+      << help;
+  const auto options = HelpOptions(help);
+  EXPECT_LE(options.size(), 45u);
+  EXPECT_GE(options.size(), 30u);
+  EXPECT_EQ(Keys(options), TableKeys("Basic"));
+  for (const auto& [key, text] : options) {
+    const size_t open = text.rfind('[');
+    ASSERT_FALSE(text.empty()) << key;
+    ASSERT_EQ(text.back(), ']') << key << ": " << text;
+    ASSERT_NE(open, std::string::npos) << key;
+    const std::string marker = text.substr(open + 1, text.size() - open - 2);
+    EXPECT_TRUE(marker.find_first_of("0123456789") != std::string::npos ||
+                marker.find("any") != std::string::npos)
+        << key << ": [" << marker << "]";
+  }
+  // COLMAP's general options come first.
+  for (const char* name : {"--database_path", "--image_path", "--output_path",
+                           "--log_level", "--project_path"}) {
+    EXPECT_LT(help.find(name), help.find("--GlobalMapper.")) << name;
+  }
+  const std::string last_line = [&help] {
+    std::string text = help;
+    while (!text.empty() && text.back() == '\n') text.pop_back();
+    return text.substr(text.rfind('\n') + 1);
+  }();
+  const size_t num_advanced = TableKeys("Advanced").size();
+  EXPECT_EQ(last_line, std::to_string(num_advanced) +
+                           " more options (solver and stage details): colmap "
+                           "global_mapper --help_all");
+  EXPECT_EQ(help.find("--GlobalMapper.gp_random_start_max_num_images"),
+            std::string::npos);
+  std::string long_help;
+  ASSERT_EQ(
+      RunCommand(ColmapExecutable() + " global_mapper --help", &long_help), 0);
+  EXPECT_EQ(long_help, help);
+
+  // automatic_reconstructor lists the same basic options.
+  std::string automatic_help;
+  ASSERT_EQ(RunCommand(ColmapExecutable() + " automatic_reconstructor -h",
+                       &automatic_help),
+            0)
+      << automatic_help;
+  EXPECT_EQ(Keys(HelpOptions(automatic_help)), TableKeys("Basic"));
+  EXPECT_NE(automatic_help.find(" more options (solver and stage details): "
+                                "colmap automatic_reconstructor --help_all"),
+            std::string::npos);
+}
+
+// `--help_all` lists every option of the table, both tiers, in its order.
+TEST(GlobalMapperCommand, HelpAllListsEveryOption) {
+  std::string help;
+  ASSERT_EQ(RunCommand(ColmapExecutable() + " global_mapper --help_all", &help),
+            0)
+      << help;
+  const std::vector<std::string> keys = TableKeys("");
+  ASSERT_GT(keys.size(), 100u);  // The source's table was found.
+  EXPECT_EQ(Keys(HelpOptions(help)), keys);
+  EXPECT_EQ(help.find("more options"), std::string::npos);
+  EXPECT_NE(help.find("--database_path"), std::string::npos);
+  std::string automatic_help;
+  ASSERT_EQ(
+      RunCommand(ColmapExecutable() + " automatic_reconstructor --help_all",
+                 &automatic_help),
+      0);
+  EXPECT_EQ(Keys(HelpOptions(automatic_help)), keys);
 }
 
 TEST(GlobalMapperCommand, ReconstructsAndKeepsDatabaseUnchanged) {
@@ -253,18 +386,19 @@ TEST(GlobalMapperCommand, BadOptionValueNamesKeyAndRange) {
        "GlobalMapper.rp_max_epipolar_error_px must be > 0, is -1"},
       {"--GlobalMapper.num_threads 0",
        "GlobalMapper.num_threads must be -1 or >= 1, is 0"},
-      {"--GlobalMapper.pv_ransac_confidence 1",
-       "GlobalMapper.pv_ransac_confidence must be in (0, 1), is 1"},
+      {"--GlobalMapper.rp_min_inlier_ratio 1.5",
+       "GlobalMapper.rp_min_inlier_ratio must be in [0, 1], is 1.5"},
       {"--GlobalMapper.track_max_num_views_per_track 2",
        "GlobalMapper.track_max_num_views_per_track must be >= "
        "GlobalMapper.track_min_num_views_per_track (3), is 2"},
       {"--GlobalMapper.min_num_matches -3",
        "GlobalMapper.min_num_matches must be >= 0, is -3"},
-      // Options that were constants in the code before issue 13.
-      {"--GlobalMapper.ba_max_num_images_dense_schur -5",
-       "GlobalMapper.ba_max_num_images_dense_schur must be >= 0, is -5"},
-      {"--GlobalMapper.vgc_multi_view_min_model_ratio 1.5",
-       "GlobalMapper.vgc_multi_view_min_model_ratio must be in [0, 1], is "
+      // Options that were constants in the code before issue 13 (advanced
+      // options since issue 30: not in `-h`, set the same way).
+      {"--GlobalMapper.gp_random_start_max_num_images -5",
+       "GlobalMapper.gp_random_start_max_num_images must be >= 0, is -5"},
+      {"--GlobalMapper.gp_min_inlier_observation_ratio 1.5",
+       "GlobalMapper.gp_min_inlier_observation_ratio must be in [0, 1], is "
        "1.5"},
       {"--GlobalMapper.min_residuals_per_ceres_thread 0",
        "GlobalMapper.min_residuals_per_ceres_thread must be >= 1, is 0"},
@@ -283,12 +417,14 @@ TEST(GlobalMapperCommand, BadOptionValueNamesKeyAndRange) {
   }
 }
 
-// Every option of `-h` (the GlobalMapper.* table) passes the check at its
-// default, and every number is refused under its own key when it is far out
-// of range: a field whose name differs from its key would be named wrongly.
+// Every option of `--help_all` (the GlobalMapper.* table, both tiers) passes
+// the check at its default, and every number is refused under its own key
+// when it is far out of range: a field whose name differs from its key would
+// be named wrongly.
 TEST(GlobalMapperCommand, EveryOptionIsCheckedUnderItsKey) {
   std::string help;
-  ASSERT_EQ(RunCommand(ColmapExecutable() + " global_mapper -h", &help), 0)
+  ASSERT_EQ(RunCommand(ColmapExecutable() + " global_mapper --help_all", &help),
+            0)
       << help;
   std::vector<std::pair<std::string, std::string>> defaults;
   const std::string prefix = "--GlobalMapper.";
@@ -302,7 +438,7 @@ TEST(GlobalMapperCommand, EveryOptionIsCheckedUnderItsKey) {
         help.substr(pos + prefix.size(), key_end - pos - prefix.size()),
         help.substr(value_begin + 2, value_end - value_begin - 2));
   }
-  ASSERT_GT(defaults.size(), 100u);  // The parse found the table.
+  ASSERT_EQ(defaults.size(), TableKeys("").size());  // The whole table.
 
   // Past the check, the output path (below a file) is the first error.
   const std::string dir = CreateTestDir("command_every_option");
@@ -341,6 +477,78 @@ TEST(GlobalMapperCommand, EveryOptionIsCheckedUnderItsKey) {
     num_checked += refused;
   }
   EXPECT_EQ(num_checked, defaults.size() - without_range.size());
+}
+
+// Issue 30: solver internals are no longer options. On the command line
+// (whichever help there is) and in a project file, such a key is one error
+// line that names it and says why; an advanced option (not in `-h`) is read
+// from both like a basic one.
+TEST(GlobalMapperCommand, RemovedOptionIsOneErrorLineAdvancedOneIsAccepted) {
+  const std::string dir = CreateTestDir("command_removed_option");
+  std::ofstream(dir + "/a_file") << "x";
+  std::string log;
+  for (const char* key :
+       {"ba_max_num_images_dense_schur", "ra_admm_relative_tolerance",
+        "pv_ransac_confidence", "tri_structure_gradient_tolerance"}) {
+    EXPECT_EQ(RunMapperOnEmptyProject(
+                  dir, dir + "/sparse",
+                  std::string("--GlobalMapper.") + key + " 1", &log),
+              1)
+        << key;
+    EXPECT_EQ(log.rfind(std::string("ERROR: Command line: GlobalMapper.") +
+                            key + " is no longer an option (",
+                        0),
+              0u)
+        << log;
+    EXPECT_NE(log.find("fixed in the code)."), std::string::npos) << log;
+    EXPECT_EQ(CountLines(log), 1u) << log;
+  }
+  EXPECT_FALSE(fs::exists(dir + "/sparse"));
+  // An advanced option with a good value: the run gets past the options, as
+  // far as the output path (below a file).
+  EXPECT_EQ(RunMapperOnEmptyProject(
+                dir, dir + "/a_file/out",
+                "--GlobalMapper.gp_random_start_max_num_images 20", &log),
+            1);
+  EXPECT_EQ(log.rfind("ERROR: Cannot create the output folder", 0), 0u) << log;
+
+  // A project file: an advanced option is read (and checked) from its
+  // [GlobalMapper] section; a removed one is refused by name.
+  const std::string ini = dir + "/project.ini";
+  ASSERT_EQ(
+      RunCommand(ColmapExecutable() + " project_generator --output_path " + ini,
+                 &log),
+      0)
+      << log;
+  std::ifstream in(ini);
+  std::string content, line;
+  while (std::getline(in, line)) {
+    if (line == "database_path=") line += dir + "/database.db";
+    if (line == "image_path=") line += dir + "/images";
+    content += line + "\n";
+  }
+  in.close();
+  for (const auto& [entry, message] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"gp_random_start_max_num_images=-5",
+            "ERROR: GlobalMapper.gp_random_start_max_num_images must be >= "
+            "0, is -5\n"},
+           {"gp_init_box_size=10", "ERROR: " + ini +
+                                       ": GlobalMapper.gp_init_box_size is no "
+                                       "longer an option ("}}) {
+    std::ofstream(ini) << content << "[GlobalMapper]\n" << entry << "\n";
+    const std::string stderr_path = dir + "/stderr.txt";
+    EXPECT_EQ(RunCommand(ColmapExecutable() + " global_mapper --project_path " +
+                         ini + " --output_path " + dir + "/sparse 2>" +
+                         stderr_path + " >/dev/null"),
+              1)
+        << entry;
+    std::ifstream stderr_file(stderr_path);
+    log.assign(std::istreambuf_iterator<char>(stderr_file),
+               std::istreambuf_iterator<char>());
+    EXPECT_EQ(log.rfind(message, 0), 0u) << entry << ": " << log;
+    EXPECT_EQ(CountLines(log), 1u) << log;
+  }
 }
 
 TEST(GlobalMapperCommand, ReadsStockProjectFile) {

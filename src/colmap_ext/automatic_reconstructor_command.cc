@@ -152,48 +152,41 @@ class GlobalAutomaticReconstruction : public Thread {
   int exit_code_ = EXIT_FAILURE;
 };
 
-int RunGlobalAutomaticReconstructor(int argc, char** argv,
-                                    SignalWatcher& watcher,
-                                    OutputGuard* guard) {
-  const bool wants_help =
-      HasArgument(argc, argv, "help") || HasArgument(argc, argv, "h");
-  AutomaticOptions automatic;
-  glomap::GlobalMapperOptions mapper_options;
-
-  // Presets first, then the project's sections, then the command line: each
-  // later source overrides the earlier ones.
-  OptionManager options;
+// Presets first (data type and quality from the command line or their
+// defaults), then the sections of the project file (--project_path) into
+// `options`; the command line overrides both later. Returns an error, or "".
+std::string ReadPresetsAndProject(int argc, char** argv,
+                                  const AutomaticOptions& automatic,
+                                  const std::string& project_path,
+                                  OptionManager* options) {
   {
     std::string data_type = FindArgument(argc, argv, "data_type");
     std::string quality = FindArgument(argc, argv, "quality");
     const std::string error = ApplyGlobalPresets(
         data_type.empty() ? automatic.data_type : data_type,
-        quality.empty() ? automatic.quality : quality, &options);
-    if (!error.empty()) return Fail(error);
+        quality.empty() ? automatic.quality : quality, options);
+    if (!error.empty()) return error;
   }
-  const std::string project_path = FindArgument(argc, argv, "project_path");
   if (!project_path.empty()) {
     OptionManager project;
     project.AddAllOptions();
     if (!ExistsFile(project_path)) {
-      return Fail("Project file " + project_path + " does not exist.");
+      return "Project file " + project_path + " does not exist.";
     }
     if (!project.Read(project_path)) {
-      return Fail("Project file " + project_path + " could not be read.");
+      return "Project file " + project_path + " could not be read.";
     }
-    CopyProjectSections(project, &options);
+    CopyProjectSections(project, options);
   }
-  // The database is the workspace's; the stock command has no option for it.
-  if (HasArgument(argc, argv, "database_path")) {
-    return Fail(
-        "automatic_reconstructor writes WORKSPACE/database.db; "
-        "--database_path is not one of its options.");
-  }
-  automatic.workspace_path = FindArgument(argc, argv, "workspace_path");
-  *options.database_path = JoinPaths(
-      automatic.workspace_path.empty() ? "." : automatic.workspace_path,
-      "database.db");
-  options.AddAllOptions();
+  return "";
+}
+
+// The stock command's own options (workspace, data type, quality, camera,
+// sparse / dense, mesher, threads, GPU, and `mapper`), bound to `automatic`.
+void AddAutomaticOptions(AutomaticOptions* automatic_out,
+                         OptionManager* options_out) {
+  AutomaticOptions& automatic = *automatic_out;
+  OptionManager& options = *options_out;
   options.AddRequiredOption("workspace_path", &automatic.workspace_path);
   options.AddDefaultOption("mask_path", &automatic.mask_path);
   options.AddDefaultOption("vocab_tree_path", &automatic.vocab_tree_path);
@@ -213,42 +206,19 @@ int RunGlobalAutomaticReconstructor(int argc, char** argv,
   options.AddDefaultOption("gpu_index", &automatic.gpu_index);
   options.AddDefaultOption("mapper", &automatic.mapper,
                            "{incremental, global}");
-  glomap::AddGlobalMapperOptions(&options, &mapper_options);
+}
 
-  // The project was read above; Parse must not read it again (it would then
-  // ignore the command line).
-  std::vector<char*> args = WithoutArgument(argc, argv, "project_path");
-  // AddAllOptions requires --database_path; it is the workspace's.
-  std::string database_flag = "--database_path";
-  std::string database_value = *options.database_path;
-  args.insert(args.end() - 1, {database_flag.data(), database_value.data()});
-  // It requires --image_path too, which a project file may give instead.
-  std::string image_flag = "--image_path";
-  std::string image_value = *options.image_path;
-  if (!HasArgument(argc, argv, "image_path") && !image_value.empty()) {
-    args.insert(args.end() - 1, {image_flag.data(), image_value.data()});
-  }
-  if (!wants_help) {
-    const std::string error =
-        CheckInputPaths("", FindArgument(argc, argv, "image_path"));
-    if (!error.empty()) return Fail(error);
-    // The workspace is made before Parse, whose check wants the database's
-    // folder to exist (stock 3.8 wants the user to make it).
-    if (automatic.workspace_path.empty()) {
-      return Fail("No workspace given (--workspace_path).");
-    }
-    std::error_code fs_error;
-    fs::create_directories(automatic.workspace_path, fs_error);
-    if (fs_error || !fs::is_directory(automatic.workspace_path)) {
-      return Fail("Cannot create the workspace " + automatic.workspace_path +
-                  (fs_error ? ": " + fs_error.message() : "."));
-    }
-  }
-  options.Parse(static_cast<int>(args.size()) - 1, args.data());
-  if (!HasArgument(argc, argv, "log_to_stderr")) FLAGS_logtostderr = true;
-
-  // The stock command's own options set the sections as its controller does
-  // (for a project, only when given on the command line).
+// The stock command's own options set the sections as its controller does
+// (for a project, only when given on the command line): camera model and
+// single camera, paths, threads, GPU (the CPU without a display). Returns
+// an error, or "".
+std::string ApplyAutomaticOptions(int argc, char** argv,
+                                  const AutomaticOptions& automatic,
+                                  const std::string& project_path,
+                                  OptionManager* options_out,
+                                  glomap::GlobalMapperOptions* mapper_out) {
+  OptionManager& options = *options_out;
+  glomap::GlobalMapperOptions& mapper_options = *mapper_out;
   const bool from_cli_or_no_project = project_path.empty();
   ImageReaderOptions& reader = *options.image_reader;
   if (from_cli_or_no_project || HasArgument(argc, argv, "camera_model")) {
@@ -258,7 +228,7 @@ int RunGlobalAutomaticReconstructor(int argc, char** argv,
     reader.single_camera = automatic.single_camera;
   }
   if (!ExistsCameraModelWithName(reader.camera_model)) {
-    return Fail("Unknown camera model " + reader.camera_model + ".");
+    return "Unknown camera model " + reader.camera_model + ".";
   }
   reader.database_path = *options.database_path;
   reader.image_path = *options.image_path;
@@ -287,6 +257,119 @@ int RunGlobalAutomaticReconstructor(int argc, char** argv,
   options.sift_matching->use_gpu = use_gpu;
   mapper_options.image_path = *options.image_path;
 
+  return "";
+}
+
+// Runs extraction, matching and the global mapper
+// (GlobalAutomaticReconstruction) until it ends or a signal stops it; returns
+// the exit code.
+int RunReconstruction(int argc, char** argv, const AutomaticOptions& automatic,
+                      const OptionManager& options,
+                      const glomap::GlobalMapperOptions& mapper_options,
+                      SignalWatcher& watcher, OutputGuard* guard) {
+  const bool use_gpu = options.sift_extraction->use_gpu;
+  GlobalAutomaticReconstruction reconstruction(automatic, options,
+                                               mapper_options, &watcher, guard);
+  watcher.SetStop([&reconstruction]() { reconstruction.Stop(); });
+  const std::unique_ptr<SignalWatcher, void (*)(SignalWatcher*)> unbind(
+      &watcher, [](SignalWatcher* bound) { bound->SetStop(nullptr); });
+#ifdef GUI_ENABLED
+  if (use_gpu && kUseOpenGL) {
+    QApplication app(argc, argv);
+    RunThreadWithOpenGLContext(&reconstruction);
+  } else {
+    reconstruction.Start();
+    reconstruction.Wait();
+  }
+#else
+  reconstruction.Start();
+  reconstruction.Wait();
+#endif
+  if (watcher.Signal() != 0 && reconstruction.ExitCode() != EXIT_SUCCESS) {
+    return Fail(InterruptedMessage(watcher.Signal()), 128 + watcher.Signal());
+  }
+  return reconstruction.ExitCode();
+}
+
+int RunGlobalAutomaticReconstructor(int argc, char** argv,
+                                    SignalWatcher& watcher,
+                                    OutputGuard* guard) {
+  // `-h` lists the basic GlobalMapper.* options, `--help_all` all of them.
+  const glomap::GlobalMapperHelp help =
+      glomap::FindGlobalMapperHelp(argc, argv);
+  const bool wants_help = help != glomap::GlobalMapperHelp::kNone;
+  AutomaticOptions automatic;
+  glomap::GlobalMapperOptions mapper_options;
+
+  // Presets first, then the project's sections, then the command line: each
+  // later source overrides the earlier ones.
+  OptionManager options;
+  const std::string project_path = FindArgument(argc, argv, "project_path");
+  if (const std::string error =
+          ReadPresetsAndProject(argc, argv, automatic, project_path, &options);
+      !error.empty()) {
+    return Fail(error);
+  }
+  // The database is the workspace's; the stock command has no option for it.
+  if (HasArgument(argc, argv, "database_path")) {
+    return Fail(
+        "automatic_reconstructor writes WORKSPACE/database.db; "
+        "--database_path is not one of its options.");
+  }
+  automatic.workspace_path = FindArgument(argc, argv, "workspace_path");
+  *options.database_path = JoinPaths(
+      automatic.workspace_path.empty() ? "." : automatic.workspace_path,
+      "database.db");
+  options.AddAllOptions();
+  AddAutomaticOptions(&automatic, &options);
+  glomap::AddGlobalMapperOptions(&options, &mapper_options, help);
+  if (wants_help) {
+    glomap::PrintGlobalMapperHelpAndExit(&options, argv[0],
+                                         "automatic_reconstructor", help);
+  }
+  {
+    const std::string error =
+        glomap::CheckForRemovedGlobalMapperOptions(argc, argv);
+    if (!error.empty()) return Fail(error);
+  }
+
+  // The project was read above; Parse must not read it again (it would then
+  // ignore the command line).
+  std::vector<char*> args = WithoutArgument(argc, argv, "project_path");
+  // AddAllOptions requires --database_path; it is the workspace's.
+  std::string database_flag = "--database_path";
+  std::string database_value = *options.database_path;
+  args.insert(args.end() - 1, {database_flag.data(), database_value.data()});
+  // It requires --image_path too, which a project file may give instead.
+  std::string image_flag = "--image_path";
+  std::string image_value = *options.image_path;
+  if (!HasArgument(argc, argv, "image_path") && !image_value.empty()) {
+    args.insert(args.end() - 1, {image_flag.data(), image_value.data()});
+  }
+  {
+    const std::string error =
+        CheckInputPaths("", FindArgument(argc, argv, "image_path"));
+    if (!error.empty()) return Fail(error);
+  }
+  // The workspace is made before Parse, whose check wants the database's
+  // folder to exist (stock 3.8 wants the user to make it).
+  if (automatic.workspace_path.empty()) {
+    return Fail("No workspace given (--workspace_path).");
+  }
+  std::error_code fs_error;
+  fs::create_directories(automatic.workspace_path, fs_error);
+  if (fs_error || !fs::is_directory(automatic.workspace_path)) {
+    return Fail("Cannot create the workspace " + automatic.workspace_path +
+                (fs_error ? ": " + fs_error.message() : "."));
+  }
+  options.Parse(static_cast<int>(args.size()) - 1, args.data());
+  if (!HasArgument(argc, argv, "log_to_stderr")) FLAGS_logtostderr = true;
+
+  if (const std::string error = ApplyAutomaticOptions(
+          argc, argv, automatic, project_path, &options, &mapper_options);
+      !error.empty()) {
+    return Fail(error);
+  }
   if (const glomap::Status check = mapper_options.Check(); !check.ok()) {
     return Fail(check.message());
   }
@@ -312,27 +395,8 @@ int RunGlobalAutomaticReconstructor(int argc, char** argv,
             << " (off unless set: they cost the global mapper accuracy)."
             << std::endl;
 
-  GlobalAutomaticReconstruction reconstruction(automatic, options,
-                                               mapper_options, &watcher, guard);
-  watcher.SetStop([&reconstruction]() { reconstruction.Stop(); });
-  const std::unique_ptr<SignalWatcher, void (*)(SignalWatcher*)> unbind(
-      &watcher, [](SignalWatcher* bound) { bound->SetStop(nullptr); });
-#ifdef GUI_ENABLED
-  if (use_gpu && kUseOpenGL) {
-    QApplication app(argc, argv);
-    RunThreadWithOpenGLContext(&reconstruction);
-  } else {
-    reconstruction.Start();
-    reconstruction.Wait();
-  }
-#else
-  reconstruction.Start();
-  reconstruction.Wait();
-#endif
-  if (watcher.Signal() != 0 && reconstruction.ExitCode() != EXIT_SUCCESS) {
-    return Fail(InterruptedMessage(watcher.Signal()), 128 + watcher.Signal());
-  }
-  return reconstruction.ExitCode();
+  return RunReconstruction(argc, argv, automatic, options, mapper_options,
+                           watcher, guard);
 }
 
 }  // namespace
@@ -340,8 +404,8 @@ int RunGlobalAutomaticReconstructor(int argc, char** argv,
 int RunAutomaticReconstructorWithMapperChoice(int argc, char** argv) {
   std::string mapper = FindArgument(argc, argv, "mapper");
   StringToLower(&mapper);
-  const bool wants_help =
-      HasArgument(argc, argv, "help") || HasArgument(argc, argv, "h");
+  const bool wants_help = glomap::FindGlobalMapperHelp(argc, argv) !=
+                          glomap::GlobalMapperHelp::kNone;
   if (!wants_help && (mapper.empty() || mapper == "incremental")) {
     std::vector<char*> args = WithoutArgument(argc, argv, "mapper");
     return RunAutomaticReconstructor(static_cast<int>(args.size()) - 1,

@@ -43,9 +43,22 @@ int RunGlobalMapperOrThrow(int argc, char** argv, SignalWatcher& signals,
   options.AddDefaultOption("image_list_path", &image_list_path,
                            "Optional file with one image name per line: "
                            "reconstruct only these images");
-  glomap::AddGlobalMapperOptions(&options, &mapper_options);
+  // `-h` lists the basic GlobalMapper.* options and names `--help_all`,
+  // which lists them all; a run accepts them all.
+  const glomap::GlobalMapperHelp help =
+      glomap::FindGlobalMapperHelp(argc, argv);
+  glomap::AddGlobalMapperOptions(&options, &mapper_options, help);
+  if (help != glomap::GlobalMapperHelp::kNone) {
+    glomap::PrintGlobalMapperHelpAndExit(&options, argv[0], "global_mapper",
+                                         help);
+  }
 
-  if (!HasArgument(argc, argv, "help") && !HasArgument(argc, argv, "h")) {
+  {
+    const std::string error = glomap::CheckForRemovedGlobalMapperOptions(
+        argc, argv, FindArgument(argc, argv, "project_path"));
+    if (!error.empty()) return Fail(error);
+  }
+  {
     const std::string error =
         CheckInputPaths(FindArgument(argc, argv, "database_path"),
                         FindArgument(argc, argv, "image_path"));

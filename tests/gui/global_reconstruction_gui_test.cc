@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <QtWidgets>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -822,11 +823,11 @@ TEST_F(GlobalReconstructionGui, OptionsDialogShowsDefaultsAndNamesBadValues) {
         entry.value);
   }
 
-  QSpinBox* dense_schur =
-      qobject_cast<QSpinBox*>(editor("ba_max_num_images_dense_schur"));
-  ASSERT_NE(dense_schur, nullptr);
-  EXPECT_EQ(dense_schur->value(), 150);
-  dense_schur->setValue(-5);
+  QSpinBox* random_start =
+      qobject_cast<QSpinBox*>(editor("gp_random_start_max_num_images"));
+  ASSERT_NE(random_start, nullptr);
+  EXPECT_EQ(random_start->value(), 500);
+  random_start->setValue(-5);
   QStringList messages;
   {
     ModalDialogHandler message_boxes(
@@ -835,11 +836,118 @@ TEST_F(GlobalReconstructionGui, OptionsDialogShowsDefaultsAndNamesBadValues) {
   }
   ASSERT_EQ(messages.size(), 1);
   EXPECT_EQ(messages.front().toStdString(),
-            "GlobalMapper.ba_max_num_images_dense_schur must be >= 0, is -5");
-  EXPECT_EQ(options.bundle_adjustment.max_num_images_dense_schur, 150);
-  dense_schur->setValue(100);
+            "GlobalMapper.gp_random_start_max_num_images must be >= 0, is -5");
+  EXPECT_EQ(options.global_positioning.random_start_max_num_images, 500);
+  random_start->setValue(100);
   EXPECT_TRUE(dialog.Apply());
-  EXPECT_EQ(options.bundle_adjustment.max_num_images_dense_schur, 100);
+  EXPECT_EQ(options.global_positioning.random_start_max_num_images, 100);
+}
+
+// The label of option `key` in the options dialog, or null.
+QLabel* OptionLabel(QWidget* dialog, const std::string& key) {
+  for (QLabel* label : dialog->findChildren<QLabel*>()) {
+    if (label->text().toStdString() == key) return label;
+  }
+  return nullptr;
+}
+
+// Issue 30: the options dialog shows the basic options (those of
+// `colmap global_mapper -h`); its "Advanced" toggle, off when the dialog is
+// made, shows the others too, and hides them again. Values of hidden options
+// are kept and applied, and a refused advanced value shows its option.
+TEST_F(GlobalReconstructionGui, OptionsDialogShowsAdvancedOptionsWhenToggled) {
+  glomap::GlobalMapperOptions options;
+  GlobalMapperOptionsDialog dialog(nullptr, &options, {});
+  dialog.show();
+  ProcessEventsFor(100);
+  QCheckBox* advanced = dialog.AdvancedToggle();
+  ASSERT_NE(advanced, nullptr);
+  EXPECT_EQ(advanced->text(), "Advanced");
+  EXPECT_TRUE(advanced->isVisible());
+  EXPECT_FALSE(advanced->isChecked());
+  QListWidget* groups = dialog.findChild<QListWidget*>();
+  ASSERT_NE(groups, nullptr);
+  glomap::GlobalMapperOptions defaults;
+  const std::vector<glomap::GlobalMapperOptionEntry> table =
+      glomap::GlobalMapperOptionTable(&defaults);
+  const auto is_basic = [](const glomap::GlobalMapperOptionEntry& entry) {
+    return entry.tier == glomap::GlobalMapperOptionTier::kBasic;
+  };
+  const size_t num_basic = std::count_if(table.begin(), table.end(), is_basic);
+  ASSERT_GT(num_basic, 0u);
+  ASSERT_LT(num_basic, table.size());
+  ASSERT_EQ(groups->count(), dialog.Groups().size());
+
+  // Opens every listed group's page and counts the option labels on it that
+  // are visible, checking each against `show_advanced`.
+  const auto count_shown = [&](bool show_advanced) {
+    size_t num_shown = 0;
+    for (int i = 0; i < groups->count(); ++i) {
+      const std::string group = groups->item(i)->text().toStdString();
+      const bool has_basic =
+          std::any_of(table.begin(), table.end(), [&](const auto& entry) {
+            return entry.group == group && is_basic(entry);
+          });
+      EXPECT_EQ(groups->item(i)->isHidden(), !show_advanced && !has_basic)
+          << group;
+      if (groups->item(i)->isHidden()) continue;
+      groups->setCurrentRow(i);
+      ProcessEventsFor(20);
+      for (const auto& entry : table) {
+        if (entry.group != group) continue;
+        QLabel* label = OptionLabel(&dialog, entry.key);
+        if (label == nullptr) {
+          ADD_FAILURE() << entry.key;
+          continue;
+        }
+        EXPECT_EQ(label->isVisible(), show_advanced || is_basic(entry))
+            << entry.key;
+        num_shown += label->isVisible();
+      }
+    }
+    return num_shown;
+  };
+  EXPECT_EQ(count_shown(false), num_basic);
+  advanced->click();
+  ProcessEventsFor(50);
+  EXPECT_TRUE(advanced->isChecked());
+  EXPECT_EQ(count_shown(true), table.size());
+
+  // An advanced value set while shown is kept when hidden, and applied.
+  QLabel* random_start_label =
+      OptionLabel(&dialog, "gp_random_start_max_num_images");
+  ASSERT_NE(random_start_label, nullptr);
+  QFormLayout* form =
+      qobject_cast<QFormLayout*>(random_start_label->parentWidget()->layout());
+  ASSERT_NE(form, nullptr);
+  int row = -1;
+  QFormLayout::ItemRole role;
+  form->getWidgetPosition(random_start_label, &row, &role);
+  QSpinBox* random_start = qobject_cast<QSpinBox*>(
+      form->itemAt(row, QFormLayout::FieldRole)->widget());
+  ASSERT_NE(random_start, nullptr);
+  random_start->setValue(77);
+  advanced->click();
+  ProcessEventsFor(50);
+  EXPECT_FALSE(advanced->isChecked());
+  EXPECT_EQ(count_shown(false), num_basic);
+  EXPECT_EQ(random_start->value(), 77);
+  EXPECT_TRUE(dialog.Apply());
+  EXPECT_EQ(options.global_positioning.random_start_max_num_images, 77);
+
+  // A refused advanced value turns "Advanced" on and shows the option.
+  random_start->setValue(-1);
+  QStringList messages;
+  {
+    ModalDialogHandler message_boxes(
+        RecordMessageBoxes(&messages, /*answer_yes=*/false, /*accept=*/true));
+    EXPECT_FALSE(dialog.Apply());
+  }
+  ASSERT_EQ(messages.size(), 1);
+  EXPECT_TRUE(advanced->isChecked());
+  ProcessEventsFor(50);
+  EXPECT_TRUE(random_start->isVisible());
+  EXPECT_EQ(options.global_positioning.random_start_max_num_images, 77);
 }
 
 // The push button of `widget` labelled `text`, or null.

@@ -52,6 +52,8 @@ struct GlobalBundleAdjustmentOptions {
   // (AUC@3 64%); 1e-7 reached 0.13 deg (AUC@3 95%). On the shared datasets
   // (<= 51 images) a smaller tolerance only adds iterations.
   double function_tolerance = 1e-5;
+  // Not a GlobalMapper.* option (part of the solver tolerance, set in the code
+  // only).
   int function_tolerance_num_images = 50;
 
   // Linear solver by the number of images: up to this, a dense Schur
@@ -68,6 +70,8 @@ struct GlobalBundleAdjustmentOptions {
   // linearly). There is no iterative fallback for large problems: the
   // iterative Schur solver that COLMAP uses above 1000 images stopped after
   // a few steps far from the optimum on a 2000-image survey (issue 14).
+  // Not a GlobalMapper.* option (where the linear solver switches, set in the
+  // code only).
   int max_num_images_dense_schur = 150;
 
   // Which groups of intrinsic parameters are refined (all cameras).

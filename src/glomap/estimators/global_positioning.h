@@ -30,6 +30,7 @@ struct GlobalPositioningOptions {
   // accurate as after 42 iterations (to convergence, 17 s).
   int prior_max_num_iterations = 20;
   // Relative cost change at which the solver stops.
+  // Not a GlobalMapper.* option (a solver tolerance, set in the code only).
   double function_tolerance = 1e-5;
   // Which unknowns are estimated. Fixed centres keep the images' current
   // poses (c = -R^T t), fixed points their random start, fixed scales 1.
@@ -39,6 +40,8 @@ struct GlobalPositioningOptions {
   // Camera centres and points start uniformly in [-s, s]^3 with s this half
   // side length (the reference's [-100, 100]^3; the paper shows the random
   // start suffices).
+  // Not a GlobalMapper.* option (the scale of the solution is arbitrary, set in
+  // the code only).
   double init_box_size = 100;
   // Start from the registered images' current centres (c = -R^T t, set by
   // InitializeCameraCenters, position_initialization.h) with every point
@@ -72,6 +75,8 @@ struct GlobalPositioningOptions {
   // full normal equations (faster on small problems); from it on, Ceres'
   // SPARSE_SCHUR with CHOLMOD and the elimination order scales, points,
   // centres (supernodal, for large camera blocks).
+  // Not a GlobalMapper.* option (where the linear solver switches, set in the
+  // code only).
   int max_num_images_eigen_sparse = 500;
   // Ceres threads; -1 = all hardware threads.
   int num_threads = -1;
@@ -81,6 +86,7 @@ struct GlobalPositioningOptions {
   // Lower bound of every scale d (1 / scene units): keeps d > 0, i.e. the
   // point in front of the camera along the observed ray, and the trivial
   // solution d = 0 out of reach (the reference's 1e-5).
+  // Not a GlobalMapper.* option (a numerical bound, set in the code only).
   double min_scale = 1e-5;
   // After the solve: observations whose ray is off by more than this angle
   // are removed ...

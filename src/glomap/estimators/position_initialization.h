@@ -47,9 +47,11 @@ struct PositionInitializationOptions {
   // Maximum number of Levenberg-Marquardt iterations of the camera-only solve.
   int max_num_iterations = 100;
   // Relative cost change at which the solver stops.
+  // Not a GlobalMapper.* option (a solver tolerance, set in the code only).
   double function_tolerance = 1e-6;
   // Lower bound of every pair's scale d (as global positioning's min_scale):
   // keeps the second camera ahead of the first along the pair's direction.
+  // Not a GlobalMapper.* option (a numerical bound, set in the code only).
   double min_scale = 1e-5;
   // Ceres threads; -1 = all hardware threads.
   int num_threads = -1;

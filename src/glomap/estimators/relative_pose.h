@@ -36,16 +36,23 @@ struct RelativePoseOptions {
   double max_epipolar_error_px = 1.0;
   // RANSAC trials at most. The database matches are already verified, so
   // the dynamic stopping criterion usually ends RANSAC after a few dozen.
+  // Not a GlobalMapper.* option (a RANSAC internal, set in the code only).
   int max_num_trials = 10000;
   // RANSAC trials at least (guards against stopping on a lucky sample).
+  // Not a GlobalMapper.* option (a RANSAC internal, set in the code only).
   int min_num_trials = 30;
   // RANSAC confidence that an all-inlier sample was drawn.
+  // Not a GlobalMapper.* option (a RANSAC internal, set in the code only).
   double confidence = 0.9999;
   // Gauss-Newton/LM iterations of the pose refinement on RANSAC inliers.
+  // Not a GlobalMapper.* option (an internal of the refinement, set in the code
+  // only).
   int max_num_refinement_iterations = 20;
   // The refinement uses at most this many RANSAC inliers, evenly spread over
   // the matches: its cost is linear in them, its accuracy gain beyond a few
   // hundred is negligible next to the rotation averaging's tolerances.
+  // Not a GlobalMapper.* option (an internal of the refinement, set in the code
+  // only).
   int max_num_refinement_points = 500;
 
   // Re-scoring threshold on the Sampson error for CALIBRATED pairs, pixels.

@@ -51,6 +51,7 @@ struct RetriangulationOptions {
   // Its Ceres gradient_tolerance (that of COLMAP's global bundle
   // adjustment; COLMAP's BundleAdjustmentOptions default 0 would stop only
   // on the other criteria).
+  // Not a GlobalMapper.* option (a solver tolerance, set in the code only).
   double structure_gradient_tolerance = 1.0;
 
   // Filter of the refinement loop (COLMAP mapper defaults).

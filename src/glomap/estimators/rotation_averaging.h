@@ -19,21 +19,28 @@ struct RotationAveragingOptions {
   // Outer L1 iterations (each relinearizes around the current rotations).
   int max_num_l1_iterations = 5;
   // The L1 stage stops when the mean per-image update is below this (rad).
+  // Not a GlobalMapper.* option (a convergence threshold, set in the code
+  // only).
   double l1_step_convergence_threshold_rad = 1e-3;
   // ADMM iterations of each L1 solve: this many in the first, doubling in
   // each later one up to l1_max_num_admm_iterations. The inner solve need
   // not be exact: relinearizing matters more than inner accuracy (as in the
   // reference).
+  // Neither is a GlobalMapper.* option (ADMM internals, set in the code only).
   int l1_initial_num_admm_iterations = 10;
   int l1_max_num_admm_iterations = 100;
   // ADMM stopping tolerances (Boyd et al., "Distributed optimization ...",
   // Sec. 3.3.1): absolute per residual coordinate (rad), and relative to the
   // size of the iterates.
+  // Neither is a GlobalMapper.* option (ADMM stopping tolerances, set in the
+  // code only).
   double admm_absolute_tolerance_rad = 1e-5;
   double admm_relative_tolerance = 1e-3;
   // Maximum number of iteratively reweighted least-squares iterations.
   int max_num_irls_iterations = 100;
   // IRLS stops when the mean per-image update is below this (rad).
+  // Not a GlobalMapper.* option (a convergence threshold, set in the code
+  // only).
   double irls_step_convergence_threshold_rad = 1e-3;
   // Scale of the Geman-McClure loss used to weight pairs in IRLS (deg).
   double irls_loss_parameter_sigma_deg = 5.0;

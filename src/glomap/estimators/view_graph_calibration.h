@@ -72,11 +72,14 @@ struct ViewGraphCalibrationOptions {
   int max_num_iterations = 100;
   // Relative cost change at which each solve stops (Ceres'
   // function_tolerance).
+  // Not a GlobalMapper.* option (a solver tolerance, set in the code only).
   double function_tolerance = 1e-5;
   // From this many cameras without a focal prior on, the solve uses a sparse
   // Cholesky; below, dense QR, which is exact and robust on the small
   // problem of one scalar per camera (a sparse Cholesky on a near-singular
   // system failed upstream, glomap #147).
+  // Not a GlobalMapper.* option (where the linear solver switches, set in the
+  // code only).
   int min_num_free_cameras_sparse = 50;
   // Ceres threads; -1 uses all cores.
   int num_threads = -1;
@@ -108,6 +111,8 @@ struct ViewGraphCalibrationOptions {
 
   // Pairs with fewer matches are not used (the incremental mapper's default
   // minimum).
+  // Not a GlobalMapper.* option (an internal of the small reconstruction, set
+  // in the code only).
   int multi_view_min_num_matches = 15;
   // A camera's focal (a group's, see calibrate_identical_cameras_as_one) is
   // taken from the small reconstruction only if at least this many of its
@@ -118,6 +123,8 @@ struct ViewGraphCalibrationOptions {
   // its pairs): a few hundred determine the focal, and the incremental
   // mapper's cost grows with them (fountain-P11, thousands of matched
   // keypoints per image: 21 s with all, 0.5 s with 500).
+  // Not a GlobalMapper.* option (an internal of the small reconstruction, set
+  // in the code only).
   int multi_view_max_num_keypoints_per_image = 500;
   // Initial-pair search: attempts per level, and levels (each after the
   // first halves the inlier count and triangulation angle required, as
@@ -125,16 +132,22 @@ struct ViewGraphCalibrationOptions {
   // once a model holds multi_view_min_model_ratio of the selected images
   // (and at least multi_view_min_num_images_per_camera); the largest model
   // decides, and none when even it holds fewer.
+  // None of these three is a GlobalMapper.* option (internals of the small
+  // reconstruction, set in the code only).
   int multi_view_max_num_init_attempts = 10;
   int multi_view_num_init_relaxations = 3;
   double multi_view_min_model_ratio = 0.5;
   // Bundle adjustment and point filtering passes of each global refinement
   // of the small reconstruction (COLMAP's mapper runs up to 5, stopping once
   // few observations change).
+  // Not a GlobalMapper.* option (an internal of the small reconstruction, set
+  // in the code only).
   int multi_view_num_global_refinements = 2;
   // RANSAC threshold of the five-point estimates that the rotation bias is
   // measured on, pixels (the relative-pose stage's default
   // rp_max_epipolar_error_px).
+  // Not a GlobalMapper.* option (an internal of the small reconstruction, set
+  // in the code only).
   double multi_view_max_epipolar_error_px = 1.0;
 
   // The first violation, naming the field as `prefix` + its name.

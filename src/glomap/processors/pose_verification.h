@@ -89,12 +89,16 @@ struct PoseVerificationOptions {
 
   // RANSAC over P3P samples, scored as above (COLMAP's confidence for
   // absolute pose); the trials needed follow the best pose's inlier ratio.
+  // None of these three is a GlobalMapper.* option (RANSAC internals, set in
+  // the code only).
   double ransac_confidence = 0.9999;
   int ransac_min_num_trials = 100;
   int ransac_max_num_trials = 10000;
   // The RANSAC estimate is refined on its inliers (COLMAP's absolute pose
   // refinement, intrinsics fixed) while its score improves, at most this
   // many times.
+  // Not a GlobalMapper.* option (an internal of the refinement, set in the code
+  // only).
   int max_num_refinements = 3;
 
   // Seed of the RANSAC samples (same input and seed, same result).
