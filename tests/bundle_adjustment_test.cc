@@ -7,8 +7,10 @@
 #include <cmath>
 #include <cstdlib>
 #include <ctime>
+#include <iostream>
 #include <random>
 #include <set>
+#include <string>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -478,6 +480,137 @@ TEST(GlobalBundleAdjustment, FixedRotationStageKeepsRotations) {
   ASSERT_TRUE(RunGlobalBundleAdjustment(options, &joint).ok());
   EXPECT_LT(ComparePoses(joint, truth).max_rotation_error_deg,
             0.5 * ComparePoses(before, truth).max_rotation_error_deg);
+}
+
+// Intrinsics bounds (issue 27, item 2): they hold the values a camera
+// starts with (the feature extractor's guess for every model) and those of
+// real lenses, and they are the documented limits.
+TEST(IntrinsicsBounds, HoldStartValuesAndRealLenses) {
+  const auto within = [](const colmap::Camera& camera) {
+    const std::vector<std::pair<double, double>> bounds =
+        IntrinsicsBounds(camera);
+    EXPECT_EQ(bounds.size(), camera.NumParams());
+    for (size_t idx = 0; idx < bounds.size(); ++idx) {
+      EXPECT_LE(bounds[idx].first, camera.Params()[idx])
+          << camera.ModelName() << " parameter " << idx;
+      EXPECT_GE(bounds[idx].second, camera.Params()[idx])
+          << camera.ModelName() << " parameter " << idx;
+    }
+  };
+  for (const std::string model :
+       {"SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV",
+        "OPENCV_FISHEYE", "FULL_OPENCV", "FOV", "SIMPLE_RADIAL_FISHEYE",
+        "RADIAL_FISHEYE", "THIN_PRISM_FISHEYE"}) {
+    colmap::Camera camera;
+    camera.InitializeWithName(model, 1.2 * 1024, 1024, 768);
+    within(camera);
+  }
+
+  // A phone (SIMPLE_RADIAL), KITTI's wide camera (OPENCV), a GoPro-like
+  // lens fitted with OPENCV (strong barrel distortion that k2 bends back)
+  // and a fisheye lens.
+  colmap::Camera phone;
+  phone.InitializeWithName("SIMPLE_RADIAL", 3000, 4000, 3000);
+  phone.SetParams({3000, 2010, 1490, -0.08});
+  within(phone);
+  colmap::Camera kitti;
+  kitti.InitializeWithName("OPENCV", 721, 1242, 375);
+  kitti.SetParams({721.5, 721.5, 609.6, 172.9, -0.37, 0.2, 0.001, -0.001});
+  within(kitti);
+  colmap::Camera gopro;
+  gopro.InitializeWithName("OPENCV", 1700, 4000, 3000);
+  gopro.SetParams({1700, 1700, 2000, 1500, -0.3, 0.1, 0.001, 0.001});
+  within(gopro);
+  colmap::Camera fisheye;
+  fisheye.InitializeWithName("OPENCV_FISHEYE", 600, 1920, 1080);
+  fisheye.SetParams({600, 600, 960, 540, 0.05, -0.02, 0.005, -0.001});
+  within(fisheye);
+
+  colmap::Camera camera;
+  camera.InitializeWithName("SIMPLE_RADIAL", 1000, 1000, 800);
+  std::vector<std::pair<double, double>> bounds = IntrinsicsBounds(camera);
+  EXPECT_DOUBLE_EQ(bounds[0].first, 100);     // 0.1 x the larger side
+  EXPECT_DOUBLE_EQ(bounds[0].second, 10000);  // 10 x
+  EXPECT_DOUBLE_EQ(bounds[1].first, 0);       // inside the image
+  EXPECT_DOUBLE_EQ(bounds[1].second, 1000);
+  EXPECT_DOUBLE_EQ(bounds[2].first, 0);
+  EXPECT_DOUBLE_EQ(bounds[2].second, 800);
+  // The corner is r = hypot(500, 400) / 1000 from the centre: k moves it
+  // by at most 100% outwards, and not so far inwards that r (1 + k r^2)
+  // folds back inside the image.
+  const double r2 = (500.0 * 500 + 400.0 * 400) / 1e6;
+  EXPECT_DOUBLE_EQ(bounds[3].second, 1 / r2);
+  EXPECT_DOUBLE_EQ(bounds[3].first, -1 / (3 * r2));
+  // A start value outside a bound widens the bound to it.
+  camera.SetParams({50, 500, 400, -2});
+  bounds = IntrinsicsBounds(camera);
+  EXPECT_DOUBLE_EQ(bounds[0].first, 50);
+  EXPECT_DOUBLE_EQ(bounds[3].first, -2);
+}
+
+// A camera whose observations all lie near its principal point (image 1 on
+// its own OPENCV camera, with its observations beyond 60 px from the centre
+// removed) cannot fix its distortion: with the soft intrinsics prior off,
+// the higher orders follow the keypoint noise without limit. With the
+// bounds (the default) every parameter ends within them; without, at
+// least one leaves them (so the test can fail).
+TEST(GlobalBundleAdjustment, BoundsHoldDistortionTheImagesCannotFix) {
+  colmap::Reconstruction truth = MakeScene(SceneOptions(), nullptr);
+  colmap::Camera own_camera;
+  own_camera.SetCameraId(2);
+  own_camera.InitializeWithName("OPENCV", 800, 640, 480);
+  truth.AddCamera(own_camera);
+  truth.Image(1).SetCameraId(2);
+  const Eigen::Vector2d center(320, 240);
+  std::vector<colmap::point2D_t> far_points2D;
+  for (colmap::point2D_t idx = 0; idx < truth.Image(1).NumPoints2D(); ++idx) {
+    const colmap::Point2D& point2D = truth.Image(1).Point2D(idx);
+    if (point2D.HasPoint3D() && (point2D.XY() - center).norm() > 60) {
+      far_points2D.push_back(idx);
+    }
+  }
+  for (const colmap::point2D_t idx : far_points2D) {
+    truth.DeleteObservation(1, idx);
+  }
+  ASSERT_GE(truth.Image(1).NumPoints3D(), 20u);
+
+  const auto adjust = [&](bool bound_intrinsics) {
+    colmap::Reconstruction reconstruction = truth;
+    Perturb(0.1, 0.02, 1.0, 7, &reconstruction);
+    GlobalBundleAdjustmentOptions options;
+    options.intrinsics_prior_px = 0;
+    options.bound_intrinsics = bound_intrinsics;
+    options.num_threads = 1;
+    EXPECT_TRUE(RunGlobalBundleAdjustment(options, &reconstruction).ok());
+    return reconstruction.Camera(2);
+  };
+  // The bounds follow the focal length (the corner's normalized radius: k2's
+  // bound goes with its 4th power), taken anew at the start of each solve;
+  // here at the adjusted focal, with 10% slack for the focal's change in the
+  // last solve.
+  const auto num_outside = [&](const colmap::Camera& camera) {
+    colmap::Camera start = own_camera;
+    for (const size_t idx : start.FocalLengthIdxs()) {
+      start.Params()[idx] = camera.Params()[idx];
+    }
+    const std::vector<std::pair<double, double>> bounds =
+        IntrinsicsBounds(start);
+    int num = 0;
+    for (size_t idx = 0; idx < bounds.size(); ++idx) {
+      const auto [lower, upper] = bounds[idx];
+      if (camera.Params()[idx] < lower - 0.1 * std::abs(lower) ||
+          camera.Params()[idx] > upper + 0.1 * std::abs(upper)) {
+        ++num;
+      }
+    }
+    return num;
+  };
+  const colmap::Camera bounded = adjust(true);
+  const colmap::Camera free = adjust(false);
+  std::cout << "own camera, bounded: " << bounded.ParamsToString()
+            << "\nown camera, free: " << free.ParamsToString() << std::endl;
+  EXPECT_EQ(num_outside(bounded), 0);
+  EXPECT_GT(num_outside(free), 0);
 }
 
 TEST(GlobalBundleAdjustment, InterruptStopsPromptly) {

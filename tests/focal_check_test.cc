@@ -104,5 +104,26 @@ TEST(FocalCheck, SplitGroupsAndCamerasOfOneSize) {
             std::string::npos);
 }
 
+// Split groups without a prior (each image its own focal): a warning that
+// names them and the spread when the viewing directions spread by less than
+// min_view_spread_deg_for_split_focals, none where they spread more (an
+// object ring fixes each image's focal) or where nothing was split.
+TEST(FocalCheck, SplitGroupsWarnWhenTheViewsDoNotSpread) {
+  SplitCameraGroup group;
+  group.camera_id = 4;
+  group.num_images = 40;
+  group.width = 1024;
+  group.height = 768;
+  const FocalCheckOptions options;
+  const std::string warning = SplitFocalWarning(options, {group}, 6.1);
+  EXPECT_EQ(warning.rfind("Focal lengths not determined", 0), 0u);
+  EXPECT_NE(warning.find("camera 4"), std::string::npos);
+  EXPECT_NE(warning.find("1024x768, 40 images"), std::string::npos);
+  EXPECT_NE(warning.find("6.1 deg"), std::string::npos);
+  EXPECT_NE(warning.find("EXIF"), std::string::npos);
+  EXPECT_EQ(SplitFocalWarning(options, {group}, 75.2), "");
+  EXPECT_EQ(SplitFocalWarning(options, {}, 0.5), "");
+}
+
 }  // namespace
 }  // namespace glomap

@@ -308,6 +308,12 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
              "Soft prior that pulls fx - fy and every distortion parameter "
              "beyond k1 towards zero: one residual each, its pixel shift at "
              "the image corner over this (0: none) [px]");
+  b.Advanced("ba_bound_intrinsics", &ba.bound_intrinsics,
+             "Hold refined intrinsics that run beyond their bounds on them: "
+             "focal length 0.1 to 10 times the larger image side, principal "
+             "point inside the image, each distortion parameter moving the "
+             "image corner by at most its distance from the principal point "
+             "[0 or 1]");
   b.Advanced("ba_prior_focal_length_std", &ba.prior_focal_length_std,
              "Soft prior that holds the focal length of a camera with a known "
              "focal (prior_focal_length: EXIF, or given) near it: its "

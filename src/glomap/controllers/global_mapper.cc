@@ -220,11 +220,13 @@ constexpr double kSplitMaxErrorRatio = 0.9;
 // time on dino-363). Groups that fit clearly better apart
 // (kSplitMaxErrorRatio) are split and all rounds rerun; the others stay
 // merged.
-Status SplitGroupsThatFitApart(const GlobalBundleAdjustmentOptions& options,
-                               const PositionPriorTerm* priors,
-                               const Interrupt& interrupt,
-                               MergedCameras* merged,
-                               colmap::Reconstruction* work) {
+// The split groups without a focal prior are appended to
+// `split_without_prior` (focal_check.h).
+Status SplitGroupsThatFitApart(
+    const GlobalBundleAdjustmentOptions& options,
+    const PositionPriorTerm* priors, const Interrupt& interrupt,
+    MergedCameras* merged, colmap::Reconstruction* work,
+    std::vector<SplitCameraGroup>* split_without_prior) {
   std::set<colmap::camera_t> groups;
   for (const auto& [image_id, camera_id] : merged->original_camera_of_image) {
     groups.insert(merged->group_of.at(camera_id));
@@ -260,6 +262,19 @@ Status SplitGroupsThatFitApart(const GlobalBundleAdjustmentOptions& options,
     if (fits_apart) split.insert(group);
   }
   if (split.empty()) return Status::Ok();
+  for (const colmap::camera_t group : split) {
+    const colmap::Camera& camera = work->Camera(group);
+    if (camera.HasPriorFocalLength()) continue;
+    SplitCameraGroup entry;
+    entry.camera_id = group;
+    entry.width = camera.Width();
+    entry.height = camera.Height();
+    // Until the split every image of the group is on the group's camera.
+    for (const colmap::image_t image_id : work->RegImageIds()) {
+      if (work->Image(image_id).CameraId() == group) ++entry.num_images;
+    }
+    split_without_prior->push_back(entry);
+  }
   // The split groups start the rounds again from the merged solution, each
   // image on a copy of the group's camera (the trial's intrinsics, fitted
   // with the points held, are a worse start: a 40-image zoom ring then
@@ -379,6 +394,7 @@ struct RunState {
   std::map<colmap::camera_t, double> start_focals;
   std::map<colmap::camera_t, double> calibrated_focals;
   std::map<colmap::image_t, colmap::camera_t> calibrated_camera_of_image;
+  std::vector<SplitCameraGroup> split_without_prior;
   // The options of the bundle adjustment rounds and of retriangulation (its
   // final bundle adjustment), as ChooseRefinedIntrinsics set them.
   GlobalBundleAdjustmentOptions bundle_adjustment;
@@ -609,9 +625,9 @@ Status AdjustBundle(RunState* run, std::string* counts) {
                                             run->priors->Term());
   if (!status.ok()) return status;
   if (run->merged_cameras.num_groups > 0) {
-    status = SplitGroupsThatFitApart(run->bundle_adjustment,
-                                     run->priors->Term(), run->interrupt,
-                                     &run->merged_cameras, run->work);
+    status = SplitGroupsThatFitApart(
+        run->bundle_adjustment, run->priors->Term(), run->interrupt,
+        &run->merged_cameras, run->work, &run->split_without_prior);
     if (!status.ok()) return status;
   }
   ReturnFreedMemory();
@@ -631,12 +647,20 @@ Status RetriangulateAndAdjust(RunState* run, std::string* counts) {
 
 // Focal lengths that the view graph left at their start values and bundle
 // adjustment then moved: the model was built on a focal length nothing
-// fixed (focal_check.h).
+// fixed; and focal lengths of split cameras that the camera motion cannot
+// fix image by image (focal_check.h).
 Status WarnOfUndeterminedFocals(RunState* run, std::string*) {
-  const std::string warning = UndeterminedFocalWarning(FindUndeterminedFocals(
-      run->options.focal_check, run->start_focals, run->calibrated_focals,
-      run->calibrated_camera_of_image, *run->work));
-  if (!warning.empty()) {
+  const FocalCheckOptions& options = run->options.focal_check;
+  const std::string undetermined = UndeterminedFocalWarning(
+      FindUndeterminedFocals(options, run->start_focals, run->calibrated_focals,
+                             run->calibrated_camera_of_image, *run->work));
+  const std::string split =
+      run->split_without_prior.empty()
+          ? ""
+          : SplitFocalWarning(options, run->split_without_prior,
+                              ViewDirectionSpreadDeg(*run->work));
+  for (const std::string& warning : {undetermined, split}) {
+    if (warning.empty()) continue;
     LOG(WARNING) << warning;
     run->summary->warnings.push_back(warning);
   }

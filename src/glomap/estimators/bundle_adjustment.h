@@ -11,6 +11,8 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "base/reconstruction.h"
 #include "glomap/priors/prior_alignment.h"
@@ -93,6 +95,18 @@ struct GlobalBundleAdjustmentOptions {
   // weaker prior (see IntrinsicsPriorMatrix).
   double intrinsics_prior_px = 0.1;
 
+  // Bounds on the refined intrinsics (IntrinsicsBounds), so that parameters
+  // the images cannot fix do not run away: the focal length within 0.1 to
+  // 10 times the larger image side (COLMAP's mapper calls a camera outside
+  // that bogus), the principal point inside the image, and each distortion
+  // parameter alone moving the image corner by at most its distance from
+  // the principal point (a lone k1 also no further inwards than where the
+  // radial mapping would fold back inside the image). A parameter that a
+  // solve moved beyond its bound is clamped onto it and held there, and the
+  // solve runs again (logged); solves that stay within them are unchanged.
+  // A start value outside a bound widens it to that value.
+  bool bound_intrinsics = true;
+
   // Focal lengths known before the solve (cameras with prior_focal_length:
   // an EXIF focal or one the user gave), by camera id; the global mapper
   // fills it from the database. Each such camera's focal parameters get a
@@ -166,6 +180,13 @@ struct GlobalBundleAdjustmentOptions {
 // divided by `sigma_px`.
 Eigen::MatrixXd IntrinsicsPriorMatrix(const colmap::Camera& camera,
                                       double sigma_px);
+
+// Per parameter of `camera` (NumParams() entries), the interval
+// bound_intrinsics holds it in; -inf / +inf where it is not bounded (the
+// distortion parameters of models other than the radial, OpenCV and fisheye
+// ones).
+std::vector<std::pair<double, double>> IntrinsicsBounds(
+    const colmap::Camera& camera);
 
 // Runs the BA rounds on the registered images and points of `reconstruction`
 // (camera intrinsics are shared per camera). The gauge is fixed by holding

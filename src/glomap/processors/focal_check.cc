@@ -113,4 +113,33 @@ std::string UndeterminedFocalWarning(
   return message.str();
 }
 
+std::string SplitFocalWarning(const FocalCheckOptions& options,
+                              const std::vector<SplitCameraGroup>& split,
+                              double view_spread_deg) {
+  if (split.empty() ||
+      view_spread_deg >= options.min_view_spread_deg_for_split_focals) {
+    return "";
+  }
+  std::ostringstream message;
+  message << std::fixed << std::setprecision(1)
+          << "Focal lengths not determined: the images of ";
+  for (size_t i = 0; i < split.size(); ++i) {
+    const SplitCameraGroup& group = split[i];
+    if (i > 0) message << (i + 1 == split.size() ? " and " : ", ");
+    message << "camera " << group.camera_id << " and its identical cameras ("
+            << group.width << "x" << group.height << ", " << group.num_images
+            << " images)";
+  }
+  message << " fit different intrinsics (a zoom lens, or several cameras of "
+             "one size) and have no focal prior, and with viewing directions "
+             "that spread by only "
+          << view_spread_deg
+          << " deg their views cannot fix each image's focal length, so the "
+             "model and these focal lengths may be wrong although they "
+             "reproject well. Known focal lengths fix it: images with EXIF "
+             "focal lengths, or feature_extractor --ImageReader.camera_params "
+             "(a focal prior).";
+  return message.str();
+}
+
 }  // namespace glomap
