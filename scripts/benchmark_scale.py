@@ -108,6 +108,12 @@ def build_parser():
     parser.add_argument("--colmap", default=DEFAULT_COLMAP,
                         help="our colmap binary; make_synthetic_scene is "
                         "taken from the same folder (default: %(default)s)")
+    parser.add_argument("--reference_colmap", metavar="PATH",
+                        help="also run this COLMAP's global_mapper (e.g. "
+                        "upstream COLMAP 4.x: ../shared/reference/"
+                        "colmap-4.1.1/colmap) on a copy of every scene's "
+                        "database, same seed and threads, right after ours, "
+                        "and compare both (time, peak memory, accuracy)")
     parser.add_argument("--output_dir", default=scale.DEFAULT_OUTPUT,
                         help="runs, reports and plots; scenes are cached in "
                         "its scenes/ (default: %(default)s)")

@@ -10,7 +10,7 @@ import shlex
 import signal
 import sys
 
-from glomap_bench import (REPO_DIR, provenance, run, scale_plots,
+from glomap_bench import (REPO_DIR, mappers, provenance, run, scale_plots,
                           scale_report, scale_runs, scale_summary)
 
 DEFAULT_OUTPUT = os.path.join(REPO_DIR, "build", "benchmark_scale")
@@ -29,25 +29,36 @@ def load_previous(path):
         return []
 
 
-def kept_run(args, previous, layout, num_images, seed):
-    """The run of `previous` that --resume keeps for this layout, size and
-    seed: successful, evaluated, the same mapper command with the same
-    colmap binary, its folder still there; None if there is none."""
-    key = scale_runs.command_key(
-        scale_runs.mapper_command(args, "", "", "", seed))
+def kept_run(args, previous, layout, num_images, seed, mapper="global"):
+    """The run of `previous` that --resume keeps for this layout, size,
+    seed and mapper ("global": ours, "reference"): successful, evaluated,
+    the same mapper command with the same binary, its folder still there;
+    None if there is none."""
+    if mapper == "reference":
+        key = scale_runs.command_key(
+            scale_runs.reference_command(args, "", "", "", seed))
+        sha256 = args.reference_colmap_sha256
+    else:
+        key = scale_runs.command_key(
+            scale_runs.mapper_command(args, "", "", "", seed))
+        sha256 = args.colmap_sha256
     return next((r for r in previous
-                 if r.get("layout") == layout and
+                 if r.get("mapper", "global") == mapper and
+                 r.get("layout") == layout and
                  r.get("images") == num_images and r.get("seed") == seed and
                  r.get("status") == "ok" and r.get("evaluation") and
                  r.get("command_key") == key and
-                 r.get("colmap_sha256") == args.colmap_sha256 and
+                 r.get("colmap_sha256") == sha256 and
                  os.path.isdir(r.get("work") or "")), None)
 
 
 def write_reports(args, meta, records, final):
-    """results.json always; results.md, plots and README when final."""
+    """results.json always; results.md, plots and README when final. The
+    tables, slopes and plots are ours; the reference's runs (with
+    --reference_colmap) are compared in a table of their own."""
     results_path = os.path.join(args.output_dir, "results.json")
-    slope_map = scale_summary.all_slopes(records, args.layouts)
+    ours = [r for r in records if r.get("mapper", "global") != "reference"]
+    slope_map = scale_summary.all_slopes(ours, args.layouts)
     with open(results_path, "w") as f:
         json.dump({"meta": meta, "runs": records,
                    "slopes": slope_map}, f, indent=2)
@@ -57,7 +68,7 @@ def write_reports(args, meta, records, final):
     md_path = os.path.join(args.output_dir, "results.md")
     with open(md_path, "w") as f:
         f.write("# Scale benchmark of `global_mapper`\n\n" + report)
-    plots = scale_plots.write_plots(records, args.layouts, args.output_dir)
+    plots = scale_plots.write_plots(ours, args.layouts, args.output_dir)
     run.log("")
     run.log(report)
     run.log("Wrote %s" % ", ".join([results_path, md_path] + plots))
@@ -80,6 +91,12 @@ def prepare(args):
         sys.exit("error: %s is not an executable (build the colmap target "
                  "first or pass --colmap)" % args.colmap)
     args.colmap_sha256 = provenance.file_sha256(args.colmap)
+    args.reference_colmap_sha256 = None
+    if args.reference_colmap:
+        args.reference_colmap = os.path.abspath(args.reference_colmap)
+        mappers.check_reference(args.reference_colmap)
+        args.reference_colmap_sha256 = provenance.file_sha256(
+            args.reference_colmap)
     os.makedirs(args.output_dir, exist_ok=True)
 
 
@@ -96,22 +113,41 @@ def make_meta(args, command, cwd):
         "timeout_s": args.timeout_s,
         "sample_interval_s": args.sample_interval_s,
         "generator_options": scale_runs.GENERATOR_OPTIONS,
-    }
+    } | ({"reference_colmap": dict(
+        provenance.binary_info(args.reference_colmap, None),
+        sha256=args.reference_colmap_sha256)} if args.reference_colmap
+        else {})
 
 
-def run_scene(args, layout, num_images, seed):
-    """The scene and the mapper run of one layout, size and seed; the
-    record (a failed scene's record has no mapper figures)."""
+def run_scene(args, layout, num_images, seed, previous=()):
+    """The scene and the mapper runs of one layout, size and seed: ours,
+    then (with --reference_colmap) the reference's, each unless --resume
+    keeps it from `previous`; their records (a failed scene's record has
+    no mapper figures)."""
     scene = scale_runs.make_scene(args, layout, num_images, seed)
     if scene["status"] != "ok":
-        return {"layout": layout,
-                "label": scale_runs.LAYOUT_LABELS.get(layout, layout),
-                "images": num_images, "seed": seed, "scene": scene,
-                "status": "scene " + scene["status"]}
-    record = scale_runs.run_mapper(args, scene, layout, num_images, seed)
-    for line in scale_runs.run_summary_lines(record):
-        run.log(line)
-    return record
+        return [{"layout": layout,
+                 "label": scale_runs.LAYOUT_LABELS.get(layout, layout),
+                 "images": num_images, "seed": seed, "scene": scene,
+                 "status": "scene " + scene["status"]}]
+    records = []
+    for mapper in ["global"] + (["reference"] if args.reference_colmap
+                                else []):
+        kept = kept_run(args, previous, layout, num_images, seed, mapper)
+        if kept:
+            run.log("  %s: kept from the earlier results.json (--resume)" %
+                    ("reference" if mapper == "reference" else "mapper"))
+            records.append(dict(kept, resumed=True))
+            continue
+        if run.STOP.is_set():
+            break
+        run_one = (scale_runs.run_reference if mapper == "reference"
+                   else scale_runs.run_mapper)
+        record = run_one(args, scene, layout, num_images, seed)
+        for line in scale_runs.run_summary_lines(record):
+            run.log(line)
+        records.append(record)
+    return records
 
 
 def run_all(args, meta, schedule, previous):
@@ -127,13 +163,13 @@ def run_all(args, meta, schedule, previous):
                 index, len(schedule),
                 scale_report.layout_title(layout).replace("`", ""), n, seed)
             kept = kept_run(args, previous, layout, n, seed)
-            if kept:
+            if kept and not args.reference_colmap:
                 run.log(title + ": kept from the earlier results.json "
                         "(--resume)")
                 records.append(dict(kept, resumed=True))
                 continue
             run.log(title + " ...")
-            records.append(run_scene(args, layout, n, seed))
+            records += run_scene(args, layout, n, seed, previous)
             write_reports(args, meta, records, final=False)
             if run.STOP.is_set():
                 interrupted = True

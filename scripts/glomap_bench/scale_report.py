@@ -191,12 +191,72 @@ def notes(meta):
                                        100 * NEGLIGIBLE_SHARE))
 
 
+def ratio_cell(ours, reference):
+    """ours / reference to two decimals ("–" without both)."""
+    if ours is None or not reference:
+        return "–"
+    return "%.2f" % (ours / reference)
+
+
+def comparison_table(records):
+    """The lines comparing our runs with the reference's (mapper
+    "reference", from --reference_colmap) on the same scenes: one row per
+    layout, size and seed that has a reference run; [] without any."""
+    references = {(r["layout"], r["images"], r["seed"]): r for r in records
+                  if r.get("mapper") == "reference"}
+    if not references:
+        return []
+    lines = ["### Ours against the reference `global_mapper`", "",
+             "Same scene, same seed and threads, the reference right after "
+             "ours on a copy of the database. Ratios: ours / reference "
+             "(below 1: ours is faster or smaller).", ""]
+    lines += tables.header_rows(
+        ["layout", "images", "seed", "time ours", "time reference",
+         "time ratio", "peak ours", "peak reference", "memory ratio",
+         "AUC@3° ours", "AUC@3° reference", "registered ours",
+         "registered reference"])
+    ours = {(r["layout"], r["images"], r["seed"]): r for r in records
+            if r.get("mapper", "global") != "reference" and "scene" in r}
+    for key in sorted(references, key=lambda k: (k[1], k[0], k[2])):
+        ref = references[key]
+        our = ours.get(key) or {}
+
+        def ok(r, field):
+            return r.get(field) if r.get("status") == "ok" else None
+
+        def auc(r):
+            return (r.get("evaluation") or {}).get("auc@3")
+
+        def registered(r):
+            ev = r.get("evaluation") or {}
+            if r.get("status") != "ok":
+                return "**%s**" % r.get("status", "not run")
+            return "%s/%s" % (ev.get("registered", "–"),
+                              ev.get("images", "–"))
+
+        lines.append(tables.table_row([
+            scale_runs.LAYOUT_LABELS.get(key[0], key[0]), str(key[1]),
+            str(key[2]), tables.fmt(ok(our, "wall_time_s"), 1, " s"),
+            tables.fmt(ok(ref, "wall_time_s"), 1, " s"),
+            ratio_cell(ok(our, "wall_time_s"), ok(ref, "wall_time_s")),
+            tables.fmt(our.get("peak_rss_mb"), 0, " MB"),
+            tables.fmt(ref.get("peak_rss_mb"), 0, " MB"),
+            ratio_cell(our.get("peak_rss_mb"), ref.get("peak_rss_mb")),
+            tables.fmt(auc(our)), tables.fmt(auc(ref)), registered(our),
+            registered(ref)]))
+    return lines + [""]
+
+
 def markdown_report(records, meta):
-    """Provenance, then the tables of every layout, then the notes."""
+    """Provenance, then the tables of every layout (ours), the comparison
+    with the reference (with --reference_colmap), then the notes."""
+    comparison = comparison_table(records)
+    records = [r for r in records if r.get("mapper", "global") != "reference"]
     lines = provenance.provenance_lines(meta) + [setup_line(meta), ""]
     several_seeds = len(meta["seeds"]) > 1
     for layout in scale_summary.layout_order(records, meta.get("layouts")):
         lines.append(layout_tables(records, layout, several_seeds))
+    lines += comparison
     lines.append(verdict_line(scale_summary.all_slopes(
         records, meta.get("layouts"))))
     lines.append("")

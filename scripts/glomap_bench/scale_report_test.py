@@ -140,5 +140,43 @@ class ReadmeTest(unittest.TestCase):
             "# p\n\n## Scale benchmark\n\n" + scale_report.README_BEGIN))
 
 
+class ComparisonTest(unittest.TestCase):
+    """--reference_colmap: the reference's runs get a table of their own
+    beside ours and stay out of our tables."""
+
+    def setUp(self):
+        self.records = fixtures.scale_records()
+        reference = fixtures.scale_record("grid", 1000)
+        reference.update(mapper="reference", wall_time_s=3.64,
+                         peak_rss_mb=190.0, stages=[])
+        reference["evaluation"] = dict(reference["evaluation"],
+                                       **{"auc@3": 88.1})
+        self.records.append(reference)
+        self.report = scale_report.markdown_report(self.records,
+                                                   fixtures.scale_meta())
+
+    def test_comparison_row(self):
+        self.assertIn("### Ours against the reference `global_mapper`",
+                      self.report)
+        row = next(line for line in self.report.split("\n")
+                   if line.startswith("| survey | 1000 | 0 |"))
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        # ours: 1.82 s, 95 MB, AUC@3 80.0; the reference 3.64 s, 190 MB.
+        self.assertEqual(cells[3:9], ["1.8 s", "3.6 s", "0.50", "95 MB",
+                                      "190 MB", "0.50"])
+        self.assertEqual(cells[9:13], ["80.0", "88.1", "1000/1000",
+                                       "1000/1000"])
+
+    def test_reference_stays_out_of_our_tables(self):
+        without = scale_report.markdown_report(
+            [r for r in self.records if r.get("mapper") != "reference"],
+            fixtures.scale_meta())
+        self.assertNotIn("Ours against the reference", without)
+        self.assertEqual(self.report.replace(
+            "\n".join(scale_report.comparison_table(self.records)) + "\n",
+            ""),
+            without)
+
+
 if __name__ == "__main__":
     unittest.main()

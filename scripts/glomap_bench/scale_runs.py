@@ -132,6 +132,16 @@ def mapper_command(args, database, image_path, output_path, seed):
             args.mapper_args)
 
 
+def reference_command(args, database, image_path, output_path, seed):
+    """The reference COLMAP's global_mapper command of one run: the same
+    seed and threads as ours (upstream COLMAP 4.x has both options), none
+    of our --mapper_args."""
+    return ([args.reference_colmap, "global_mapper", "--database_path",
+             database, "--image_path", image_path, "--output_path",
+             output_path, "--GlobalMapper.random_seed", str(seed),
+             "--GlobalMapper.num_threads", str(args.num_threads)])
+
+
 def command_key(command):
     """What makes two mapper runs the same run: the command without the
     binary and the paths (which differ per output folder)."""
@@ -151,6 +161,11 @@ def add_evaluation(args, record, scene, output_path):
     """Puts the run's model, its analysis and its evaluation against the
     scene's gt/ into the record (or the status "failed: no model")."""
     model_path, analysis = models.pick_model(args.colmap, output_path)
+    if model_path is None and record.get("mapper") == "reference":
+        # A model our COLMAP 3.8 cannot analyze: the reference's own
+        # model_analyzer (the evaluation still uses ours).
+        model_path, analysis = models.pick_model(args.reference_colmap,
+                                                 output_path)
     if model_path is None:
         record["status"] = "failed: no model"
         record["error"] = run.last_lines(record["log"])
@@ -210,6 +225,47 @@ def run_mapper(args, scene, layout, num_images, seed):
     if (before.st_size, before.st_mtime) != (after.st_size, after.st_mtime):
         run.log("  warning: the mapper changed %s" % database)
         record["database_changed"] = True
+    if record["status"] != "ok":
+        record["error"] = run.last_lines(log_path)
+        return record
+    add_evaluation(args, record, scene, output_path)
+    return record
+
+
+def run_reference(args, scene, layout, num_images, seed):
+    """One run of the reference COLMAP's global_mapper on a copy of the
+    scene's database (upstream COLMAP migrates a database in place), from a
+    fresh folder; its record (mapper "reference": wall time, peak memory
+    and evaluation, no stages)."""
+    work = os.path.join(args.output_dir, "runs",
+                        run_name(layout, num_images, seed) + "_reference")
+    if os.path.isdir(work):
+        shutil.rmtree(work)
+    os.makedirs(work)
+    database = os.path.join(work, "database.db")
+    shutil.copyfile(os.path.join(scene["path"], "database.db"), database)
+    image_path = os.path.join(work, "no_images")
+    os.makedirs(image_path)
+    output_path = os.path.join(work, "sparse")
+    os.makedirs(output_path)
+    log_path = os.path.join(work, "log.txt")
+    command = reference_command(args, database, image_path, output_path,
+                                seed)
+    record = {"mapper": "reference", "layout": layout,
+              "label": LAYOUT_LABELS.get(layout, layout),
+              "images": num_images, "seed": seed, "work": work,
+              "command": command, "command_key": command_key(command),
+              "colmap_sha256": args.reference_colmap_sha256, "scene": scene,
+              "log": log_path}
+    run.log("  reference: $ " + shlex.join(command))
+    measured = run.measure_process(command, log_path, args.timeout_s,
+                                   args.sample_interval_s)
+    record["status"] = run.process_status(measured, args.timeout_s)
+    record.update(
+        wall_time_s=round(measured["wall_s"], 3),
+        peak_rss_mb=round(measured["peak_rss_mb"], 1)
+        if measured["peak_rss_mb"] is not None else None,
+        exit_code=measured["exit_code"], signal=measured["signal"])
     if record["status"] != "ok":
         record["error"] = run.last_lines(log_path)
         return record

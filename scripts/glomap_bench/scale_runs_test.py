@@ -38,6 +38,16 @@ class CommandTest(unittest.TestCase):
         self.assertEqual(scale_runs.run_name("grid", 1000, 4),
                          "grid_1000_seed4")
 
+    def test_reference_command(self):
+        # The same seed and threads, none of our --mapper_args.
+        args = argparse.Namespace(reference_colmap="/u/colmap",
+                                  num_threads=2, mapper_args=["--X", "1"])
+        command = scale_runs.reference_command(args, "/d", "/i", "/o", 4)
+        self.assertEqual(command[0], "/u/colmap")
+        self.assertEqual(scale_runs.command_key(command), [
+            "global_mapper", "--GlobalMapper.random_seed", "4",
+            "--GlobalMapper.num_threads", "2"])
+
 
 class LayoutsTest(unittest.TestCase):
     def test_layouts(self):
