@@ -183,21 +183,35 @@ def add_evaluation(args, record, scene, output_path):
         record["evaluation_error"] = error
 
 
-def run_mapper(args, scene, layout, num_images, seed):
-    """One mapper run on a scene, from a fresh folder; its record."""
-    work = os.path.join(args.output_dir, "runs",
-                        run_name(layout, num_images, seed))
+def fresh_run_folder(work):
+    """Makes `work` anew with an empty image folder and an output folder;
+    (image path, output path, log path)."""
     if os.path.isdir(work):
         shutil.rmtree(work)
     os.makedirs(work)
-    # The mapper opens the database read-only (immutable): the scene's own
-    # file is used, no copy (a 10,000-image database is large).
-    database = os.path.join(scene["path"], "database.db")
     image_path = os.path.join(work, "no_images")
     os.makedirs(image_path)
     output_path = os.path.join(work, "sparse")
     os.makedirs(output_path)
-    log_path = os.path.join(work, "log.txt")
+    return image_path, output_path, os.path.join(work, "log.txt")
+
+
+def process_figures(measured):
+    """A run record's figures of the mapper process (run.measure_process)."""
+    return {"wall_time_s": round(measured["wall_s"], 3),
+            "peak_rss_mb": round(measured["peak_rss_mb"], 1)
+            if measured["peak_rss_mb"] is not None else None,
+            "exit_code": measured["exit_code"], "signal": measured["signal"]}
+
+
+def run_mapper(args, scene, layout, num_images, seed):
+    """One mapper run on a scene, from a fresh folder; its record."""
+    work = os.path.join(args.output_dir, "runs",
+                        run_name(layout, num_images, seed))
+    image_path, output_path, log_path = fresh_run_folder(work)
+    # The mapper opens the database read-only (immutable): the scene's own
+    # file is used, no copy (a 10,000-image database is large).
+    database = os.path.join(scene["path"], "database.db")
     command = mapper_command(args, database, image_path, output_path, seed)
     record = {"layout": layout, "label": LAYOUT_LABELS.get(layout, layout),
               "images": num_images, "seed": seed, "work": work,
@@ -209,11 +223,8 @@ def run_mapper(args, scene, layout, num_images, seed):
     measured = run.measure_process(command, log_path, args.timeout_s,
                                    args.sample_interval_s)
     record["status"] = run.process_status(measured, args.timeout_s)
+    record.update(process_figures(measured))
     record.update(
-        wall_time_s=round(measured["wall_s"], 3),
-        peak_rss_mb=round(measured["peak_rss_mb"], 1)
-        if measured["peak_rss_mb"] is not None else None,
-        exit_code=measured["exit_code"], signal=measured["signal"],
         stages=parse.parse_stages(log_path),
         stage_peak_rss_mb={k: round(v, 1) for k, v in
                            measured["stage_peak_rss_mb"].items()},
@@ -239,16 +250,9 @@ def run_reference(args, scene, layout, num_images, seed):
     and evaluation, no stages)."""
     work = os.path.join(args.output_dir, "runs",
                         run_name(layout, num_images, seed) + "_reference")
-    if os.path.isdir(work):
-        shutil.rmtree(work)
-    os.makedirs(work)
+    image_path, output_path, log_path = fresh_run_folder(work)
     database = os.path.join(work, "database.db")
     shutil.copyfile(os.path.join(scene["path"], "database.db"), database)
-    image_path = os.path.join(work, "no_images")
-    os.makedirs(image_path)
-    output_path = os.path.join(work, "sparse")
-    os.makedirs(output_path)
-    log_path = os.path.join(work, "log.txt")
     command = reference_command(args, database, image_path, output_path,
                                 seed)
     record = {"mapper": "reference", "layout": layout,
@@ -261,11 +265,7 @@ def run_reference(args, scene, layout, num_images, seed):
     measured = run.measure_process(command, log_path, args.timeout_s,
                                    args.sample_interval_s)
     record["status"] = run.process_status(measured, args.timeout_s)
-    record.update(
-        wall_time_s=round(measured["wall_s"], 3),
-        peak_rss_mb=round(measured["peak_rss_mb"], 1)
-        if measured["peak_rss_mb"] is not None else None,
-        exit_code=measured["exit_code"], signal=measured["signal"])
+    record.update(process_figures(measured))
     if record["status"] != "ok":
         record["error"] = run.last_lines(log_path)
         return record

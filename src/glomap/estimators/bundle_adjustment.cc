@@ -561,12 +561,19 @@ BoundsAtStart(const GlobalBundleAdjustmentOptions& options,
 int ClampToBounds(const std::vector<std::pair<double, double>>& bounds,
                   colmap::Camera* camera, std::vector<int>* held,
                   std::ostringstream* description) {
+  // The parameters' names ("f, cx, cy, k"), read at the first clamp only:
+  // this runs for every camera after every solve.
   std::vector<std::string> names;
-  std::istringstream info(camera->ParamsInfo());
-  for (std::string name; std::getline(info, name, ',');) {
-    name.erase(0, name.find_first_not_of(' '));
-    names.push_back(name);
-  }
+  const auto name_of = [&names, camera](size_t idx) {
+    if (names.empty()) {
+      std::istringstream info(camera->ParamsInfo());
+      for (std::string name; std::getline(info, name, ',');) {
+        name.erase(0, name.find_first_not_of(' '));
+        names.push_back(name);
+      }
+    }
+    return idx < names.size() ? names[idx] : std::to_string(idx);
+  };
   int num_clamped = 0;
   std::vector<double>& params = camera->Params();
   for (size_t idx = 0; idx < bounds.size() && idx < params.size(); ++idx) {
@@ -574,9 +581,8 @@ int ClampToBounds(const std::vector<std::pair<double, double>>& bounds,
         std::clamp(params[idx], bounds[idx].first, bounds[idx].second);
     if (clamped == params[idx]) continue;
     *description << (description->tellp() > 0 ? "; " : "") << "camera "
-                 << camera->CameraId() << " "
-                 << (idx < names.size() ? names[idx] : std::to_string(idx))
-                 << " " << params[idx] << " -> " << clamped;
+                 << camera->CameraId() << " " << name_of(idx) << " "
+                 << params[idx] << " -> " << clamped;
     params[idx] = clamped;
     held->insert(
         std::upper_bound(held->begin(), held->end(), static_cast<int>(idx)),
@@ -791,6 +797,15 @@ size_t FilterAndCountChangedTracks(double max_normalized_reproj_error,
   return num_changed;
 }
 
+// The image corner's distance from the centre on the normalized image plane
+// (half the diagonal over the mean focal length).
+double CornerNormalizedRadius(const colmap::Camera& camera) {
+  return 0.5 *
+         std::hypot(static_cast<double>(camera.Width()),
+                    static_cast<double>(camera.Height())) /
+         std::max(camera.MeanFocalLength(), 1e-9);
+}
+
 }  // namespace
 
 // How much weaker the prior on OPENCV_FISHEYE's k2, k3, k4 is than on the
@@ -801,13 +816,9 @@ Eigen::MatrixXd IntrinsicsPriorMatrix(const colmap::Camera& camera,
                                       double sigma_px) {
   const std::string model = camera.ModelName();
   const double focal = camera.MeanFocalLength();
-  const double radius = 0.5 *
-                        std::hypot(static_cast<double>(camera.Width()),
-                                   static_cast<double>(camera.Height())) /
-                        std::max(focal, 1e-9);
   // (parameter index, shift at the corner per unit, pixels).
   std::vector<std::pair<size_t, double>> terms;
-  const double r = radius;
+  const double r = CornerNormalizedRadius(camera);
   if (model == "RADIAL" || model == "RADIAL_FISHEYE") {
     terms = {{4, focal * std::pow(r, 5)}};  // k2
   } else if (model == "OPENCV" || model == "FULL_OPENCV") {
@@ -887,8 +898,7 @@ std::vector<std::pair<double, double>> IntrinsicsBounds(
   // The corner's normalized radius, or its angle for the fisheye models.
   const std::string model = camera.ModelName();
   const bool fisheye = model.find("FISHEYE") != std::string::npos;
-  const double radius = 0.5 * std::hypot(width, height) /
-                        std::max(camera.MeanFocalLength(), 1e-9);
+  const double radius = CornerNormalizedRadius(camera);
   const double r = fisheye ? std::atan(radius) : radius;
   // A parameter whose term is param * r^power relative to the radius.
   const auto radial = [&](size_t idx, int power, double fraction) {

@@ -9,6 +9,11 @@
 
 namespace glomap {
 
+// What both warnings name as the remedy.
+constexpr char kKnownFocalsFixIt[] =
+    "Known focal lengths fix it: images with EXIF focal lengths, or "
+    "feature_extractor --ImageReader.camera_params (a focal prior)";
+
 std::map<colmap::camera_t, double> FocalsWithoutPrior(
     const colmap::Reconstruction& reconstruction) {
   std::map<colmap::camera_t, double> focals;
@@ -92,9 +97,8 @@ std::string UndeterminedFocalWarning(
             << camera.adjusted_px << " px after bundle adjustment)";
   }
   message << ", so the model and these focal lengths may be wrong although "
-             "they reproject well. Known focal lengths fix it: images with "
-             "EXIF focal lengths, or feature_extractor "
-             "--ImageReader.camera_params (a focal prior)";
+             "they reproject well. "
+          << kKnownFocalsFixIt;
   // Cameras of one size that were not merged differ in their start values:
   // if they are one camera, one camera for all of them helps too.
   bool same_size = false;
@@ -136,9 +140,8 @@ std::string SplitFocalWarning(const FocalCheckOptions& options,
           << view_spread_deg
           << " deg their views cannot fix each image's focal length, so the "
              "model and these focal lengths may be wrong although they "
-             "reproject well. Known focal lengths fix it: images with EXIF "
-             "focal lengths, or feature_extractor --ImageReader.camera_params "
-             "(a focal prior).";
+             "reproject well. "
+          << kKnownFocalsFixIt << ".";
   return message.str();
 }
 
