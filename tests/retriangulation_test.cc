@@ -348,10 +348,18 @@ TEST(Retriangulation, InterruptAndBadInput) {
             "-1");
   // The final bundle adjustment's options, under their own prefix.
   RetriangulationOptions bad_ba;
-  bad_ba.bundle_adjustment.loss_scale_px = 0;
+  bad_ba.bundle_adjustment.loss_scale_px = -1;
   EXPECT_EQ(bad_ba.Check("GlobalMapper.tri_").message(),
-            "GlobalMapper.tri_bundle_adjustment.loss_scale_px must be > 0, is "
-            "0");
+            "GlobalMapper.tri_bundle_adjustment.loss_scale_px must be >= 0, "
+            "is -1");
+  // 0 is least squares, and accepted.
+  RetriangulationOptions least_squares;
+  least_squares.final_ba_loss_scale_px = 0;
+  least_squares.bundle_adjustment.loss_scale_px = 0;
+  EXPECT_TRUE(least_squares.Check().ok());
+  least_squares.final_ba_loss_scale_px = -0.5;
+  EXPECT_EQ(least_squares.Check().message(),
+            "final_ba_loss_scale_px must be >= 0, is -0.5");
 }
 
 TEST(Retriangulation, Deterministic) {

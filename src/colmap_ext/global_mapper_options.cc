@@ -368,6 +368,9 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
              "Run a final bundle adjustment");
   b.Basic("tri_final_ba_max_num_iterations", &tri.final_ba_max_num_iterations,
           "Iteration cap of the final bundle adjustment [iterations, >= 1]");
+  b.Advanced("tri_final_ba_loss_scale_px", &tri.final_ba_loss_scale_px,
+             "Robust loss scale of the final bundle adjustment [px, 0: least "
+             "squares]");
 
   b.Group("Camera clustering");
   auto& cc = o->clustering;

@@ -355,6 +355,7 @@ GlobalMapperOptions WithGeneralOptionsPropagated(GlobalMapperOptions options) {
   final_ba.skip_joint_stage = false;
   final_ba.max_num_iterations =
       options.retriangulation.final_ba_max_num_iterations;
+  final_ba.loss_scale_px = options.retriangulation.final_ba_loss_scale_px;
   return options;
 }
 

@@ -220,7 +220,9 @@ colmap::BundleAdjustmentOptions ColmapOptions(
     const GlobalBundleAdjustmentOptions& options, InterruptCallback* callback) {
   colmap::BundleAdjustmentOptions ba_options;
   ba_options.loss_function_type =
-      colmap::BundleAdjustmentOptions::LossFunctionType::SOFT_L1;
+      options.loss_scale_px > 0
+          ? colmap::BundleAdjustmentOptions::LossFunctionType::SOFT_L1
+          : colmap::BundleAdjustmentOptions::LossFunctionType::TRIVIAL;
   ba_options.loss_function_scale = options.loss_scale_px;
   ba_options.refine_focal_length = options.refine_focal_length;
   ba_options.refine_principal_point = options.refine_principal_point;
@@ -957,7 +959,7 @@ Status GlobalBundleAdjustmentOptions::Check(const std::string& prefix) const {
   check.AtLeast("intrinsics_prior_px", intrinsics_prior_px, 0);
   check.AtLeast("prior_focal_length_std", prior_focal_length_std, 0);
   check.AtLeast("num_rounds", num_rounds, 1);
-  check.GreaterThan("loss_scale_px", loss_scale_px, 0);
+  check.AtLeast("loss_scale_px", loss_scale_px, 0);
   check.AtLeast("max_num_iterations", max_num_iterations, 1);
   check.AtLeast("function_tolerance", function_tolerance, 0);
   check.AtLeast("function_tolerance_num_images", function_tolerance_num_images,

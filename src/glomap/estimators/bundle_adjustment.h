@@ -34,7 +34,8 @@ struct GlobalBundleAdjustmentOptions {
   // reference uses Huber(1 px), which COLMAP 3.8's BundleAdjuster does not
   // offer, and soft-L1 is its smooth equivalent. Cauchy would be more
   // aggressive, but it down-weights correct observations whose error is
-  // still large right after global positioning.
+  // still large right after global positioning. 0: no robust loss (least
+  // squares, as COLMAP's global bundle adjustment after its filtering).
   double loss_scale_px = 1.0;
 
   // Maximum Ceres iterations per solve (each round has up to two solves).

@@ -103,6 +103,7 @@ Status RetriangulationOptions::Check(const std::string& prefix) const {
                     0);
   check.AtLeast("filter_min_tri_angle_deg", filter_min_tri_angle_deg, 0);
   check.AtLeast("final_ba_max_num_iterations", final_ba_max_num_iterations, 1);
+  check.AtLeast("final_ba_loss_scale_px", final_ba_loss_scale_px, 0);
   check.Add(bundle_adjustment.Check(prefix + "bundle_adjustment."));
   return check.status();
 }
