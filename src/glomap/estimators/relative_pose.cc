@@ -1,7 +1,6 @@
 #include "glomap/estimators/relative_pose.h"
 
 #include <ceres/ceres.h>
-#include <ceres/rotation.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -19,6 +18,7 @@
 #include "base/pose.h"
 #include "estimators/essential_matrix.h"
 #include "estimators/two_view_geometry.h"
+#include "glomap/estimators/cost_functions/sampson_error.h"
 #include "glomap/util/options_check.h"
 #include "glomap/util/parallel_for.h"
 #include "optim/loransac.h"
@@ -128,46 +128,6 @@ struct PairTask {
   const std::vector<Eigen::Vector2d>* normalized2 = nullptr;
 };
 
-// Sampson distance (not squared, unlike COLMAP's RelativePoseCostFunction,
-// whose squared residual would make the refinement minimise error^4) of one
-// correspondence in normalised image coordinates.
-struct SampsonErrorCost {
-  SampsonErrorCost(const Eigen::Vector2d& x1, const Eigen::Vector2d& x2)
-      : x1(x1), x2(x2) {}
-
-  template <typename T>
-  bool operator()(const T* const qvec, const T* const tvec, T* residual) const {
-    Eigen::Matrix<T, 3, 3, Eigen::RowMajor> R;
-    ceres::QuaternionToRotation(qvec, R.data());
-    Eigen::Matrix<T, 3, 3> t_cross;
-    t_cross << T(0), -tvec[2], tvec[1], tvec[2], T(0), -tvec[0], -tvec[1],
-        tvec[0], T(0);
-    const Eigen::Matrix<T, 3, 3> E = t_cross * R;
-    const Eigen::Matrix<T, 3, 1> x1_h(T(x1(0)), T(x1(1)), T(1));
-    const Eigen::Matrix<T, 3, 1> x2_h(T(x2(0)), T(x2(1)), T(1));
-    const Eigen::Matrix<T, 3, 1> Ex1 = E * x1_h;
-    const Eigen::Matrix<T, 3, 1> Etx2 = E.transpose() * x2_h;
-    const T x2tEx1 = x2_h.dot(Ex1);
-    // The tiny constant keeps the square root differentiable when a point
-    // lies on the epipole (a numerical guard, far below any residual that
-    // matters, so not an option).
-    const T denominator =
-        ceres::sqrt(Ex1(0) * Ex1(0) + Ex1(1) * Ex1(1) + Etx2(0) * Etx2(0) +
-                    Etx2(1) * Etx2(1) + T(1e-20));
-    residual[0] = x2tEx1 / denominator;
-    return true;
-  }
-
-  static ceres::CostFunction* Create(const Eigen::Vector2d& x1,
-                                     const Eigen::Vector2d& x2) {
-    return new ceres::AutoDiffCostFunction<SampsonErrorCost, 1, 4, 3>(
-        new SampsonErrorCost(x1, x2));
-  }
-
-  const Eigen::Vector2d x1;
-  const Eigen::Vector2d x2;
-};
-
 // Refines cam2_from_cam1 on the start's inliers (robust Sampson distance).
 void RefinePose(const RelativePoseOptions& options,
                 const std::vector<Eigen::Vector2d>& inliers1,
@@ -181,7 +141,7 @@ void RefinePose(const RelativePoseOptions& options,
       std::min<size_t>(inliers1.size(), options.max_num_refinement_points);
   for (size_t k = 0; k < num_points; ++k) {
     const size_t i = k * inliers1.size() / num_points;
-    problem.AddResidualBlock(SampsonErrorCost::Create(inliers1[i], inliers2[i]),
+    problem.AddResidualBlock(new SampsonErrorCost(inliers1[i], inliers2[i]),
                              loss, refined_qvec.data(), refined_tvec.data());
   }
   colmap::SetQuaternionManifold(&problem, refined_qvec.data());
