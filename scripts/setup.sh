@@ -24,9 +24,6 @@ export DEBIAN_FRONTEND=noninteractive
 PACKAGES=(
   build-essential cmake ninja-build ccache git pkg-config dpkg-dev
   libceres-dev libsuitesparse-dev libeigen3-dev
-  # An optimised BLAS for CHOLMOD's factorizations (README, "BLAS"); it
-  # becomes the system's libblas.so.3 / liblapack.so.3 in place of ATLAS.
-  libopenblas0-serial
   libboost-program-options-dev libboost-filesystem-dev libboost-graph-dev
   libboost-system-dev libboost-test-dev
   libfreeimage-dev libflann-dev liblz4-dev libmetis-dev
