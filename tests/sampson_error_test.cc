@@ -99,9 +99,7 @@ TEST(SampsonErrorCost, MeasuresTheDistanceToTheEpipolarLine) {
   EXPECT_NEAR(residual, 0, 1e-12);
   // The epipolar line of x1 in image 2 and its unit normal.
   const Eigen::Matrix3d E =
-      (Eigen::Matrix3d() << 0, -t(2), t(1), t(2), 0, -t(0), -t(1), t(0), 0)
-          .finished() *
-      rotation.toRotationMatrix();
+      colmap::CrossProductMatrix(t) * rotation.toRotationMatrix();
   const Eigen::Vector3d line = E * x1.homogeneous();
   const Eigen::Vector2d normal = line.head<2>().normalized();
   const double offset = 1e-3;

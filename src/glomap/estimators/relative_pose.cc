@@ -29,12 +29,6 @@ namespace {
 
 using TwoViewGeometry = colmap::TwoViewGeometry;
 
-Eigen::Matrix3d CrossProductMatrix(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0, -v(2), v(1), v(2), 0, -v(0), -v(1), v(0), 0;
-  return m;
-}
-
 double SquaredSampsonError(const Eigen::Matrix3d& E, const Eigen::Vector3d& x1,
                            const Eigen::Vector3d& x2) {
   const Eigen::Vector3d Ex1 = E * x1;
@@ -332,7 +326,7 @@ bool RescoreMatches(const RelativePoseOptions& options, const PairTask& task,
   const double max_epipole_cos =
       std::cos(options.min_epipole_angle_deg * M_PI / 180.0);
 
-  const Eigen::Matrix3d E = CrossProductMatrix(tvec) * R;
+  const Eigen::Matrix3d E = colmap::CrossProductMatrix(tvec) * R;
   // Epipoles as unit rays: camera 2's centre seen from camera 1, and camera
   // 1's centre seen from camera 2.
   const Eigen::Vector3d center2_in_cam1 = -R.transpose() * tvec;
@@ -440,8 +434,8 @@ PoseSource ProcessPair(const RelativePoseOptions& options,
     constexpr int kMaxReselectionRounds = 10;
     for (int round = 0; round < kMaxReselectionRounds; ++round) {
       const size_t num_before = start.inliers1.size();
-      start.E =
-          CrossProductMatrix(tvec) * colmap::QuaternionToRotationMatrix(qvec);
+      start.E = colmap::CrossProductMatrix(tvec) *
+                colmap::QuaternionToRotationMatrix(qvec);
       SelectAgreeing(points, max_error, &start);
       if (start.inliers1.size() <= num_before) break;
       RefinePose(options, start.inliers1, start.inliers2, max_error, &qvec,

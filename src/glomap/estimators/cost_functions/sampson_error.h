@@ -6,6 +6,8 @@
 
 #include <Eigen/Core>
 
+#include "base/pose.h"
+
 namespace glomap {
 
 // r = x2^T E x1 / sqrt(|(E x1)_xy|^2 + |(E^T x2)_xy|^2) for E = [t]x R(q),
@@ -40,8 +42,7 @@ class SampsonErrorCost : public ceres::SizedCostFunction<1, 4, 3> {
         2 * (y * z - w * x),  //
         2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z;
     const Eigen::Matrix3d R = S / squared_norm;
-    Eigen::Matrix3d t_cross;
-    t_cross << 0, -t(2), t(1), t(2), 0, -t(0), -t(1), t(0), 0;
+    const Eigen::Matrix3d t_cross = colmap::CrossProductMatrix(t);
     const Eigen::Matrix3d E = t_cross * R;
     const Eigen::Vector3d Ex1 = E * x1_;
     const Eigen::Vector3d Etx2 = E.transpose() * x2_;
