@@ -200,6 +200,46 @@ TEST(GlobalPositioning, ForwardMotion) {
   EXPECT_LT(error, 1e-3);
 }
 
+// With the scales projected out (the default) the solve has the minima of
+// the solve with one scale unknown per observation: both reach the same
+// centres, with the sparse normal equations of small problems and with the
+// Schur complement of large ones (forced here by max_num_images_eigen_sparse
+// 0), whose elimination then takes the points instead of the scales.
+TEST(GlobalPositioning, ProjectedScalesReachTheJointSolveMinimum) {
+  for (const int max_num_images_eigen_sparse : {500, 0}) {
+    for (const bool forward : {false, true}) {
+      const Scene start = forward ? MakeForwardScene(40, 1500, 0.5)
+                                  : MakeRingScene(20, 500, 1.0);
+      GlobalPositioningOptions options;
+      options.max_num_images_eigen_sparse = max_num_images_eigen_sparse;
+      options.function_tolerance = 1e-10;
+      options.max_num_iterations = 300;
+      Scene projected = start;
+      options.project_out_scales = true;
+      ASSERT_TRUE(Solve(&projected, options).ok());
+      Scene joint = start;
+      options.project_out_scales = false;
+      ASSERT_TRUE(Solve(&joint, options).ok());
+      std::vector<Eigen::Vector3d> projected_centers, joint_centers;
+      for (const colmap::image_t image_id : start.image_ids) {
+        projected_centers.push_back(
+            projected.reconstruction.Image(image_id).ProjectionCenter());
+        joint_centers.push_back(
+            joint.reconstruction.Image(image_id).ProjectionCenter());
+      }
+      const double difference =
+          testing::RelativeCenterError(projected_centers, joint_centers);
+      const double error = RelativeCenterError(projected);
+      std::cout << "  " << (forward ? "forward" : "ring")
+                << ", max_num_images_eigen_sparse "
+                << max_num_images_eigen_sparse << ": projected vs joint "
+                << difference << ", projected vs truth " << error << std::endl;
+      EXPECT_LT(difference, 1e-5);
+      EXPECT_LT(error, forward ? 1e-3 : 5e-3);
+    }
+  }
+}
+
 TEST(GlobalPositioning, StartsFromImageCenters) {
   // The start that position initialization gives a straight drive: the
   // order right, the spacing wrong (the pairs' directions do not fix it),

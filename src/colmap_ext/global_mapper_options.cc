@@ -222,6 +222,10 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
              "Optimize camera positions");
   b.Advanced("gp_optimize_points", &gp.optimize_points, "Optimize points");
   b.Advanced("gp_optimize_scales", &gp.optimize_scales, "Optimize ray scales");
+  b.Advanced("gp_project_out_scales", &gp.project_out_scales,
+             "Solve for centres and points only, each ray scale at its best "
+             "value for them (variable projection); 0: the scales are "
+             "unknowns of the solve");
   b.Advanced("gp_random_start_unless_converged",
              &gp.random_start_unless_converged,
              "With init_positions_from_pairs: if that start does not "

@@ -6,6 +6,7 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Core>
+#include <Eigen/Dense>
 #include <algorithm>
 
 namespace glomap {
@@ -56,5 +57,56 @@ inline double BestRayScale(const Eigen::Vector3d& ray_in_world,
   if (!(squared_norm > 0)) return min_scale;
   return std::max(min_scale, ray_in_world.dot(diff) / squared_norm);
 }
+
+// The ray residual with the scale at its best value (BestRayScale) for the
+// current c and X, i.e. d projected out (variable projection): with
+// w = X - c and d = <v, w> / |w|^2 it is the part of v across w, of norm
+// sin(angle(v, w)); where that d falls below min_scale (X behind c along v)
+// d = min_scale. The minima in (c, X) are those of RayResidual minimised
+// over d, without one scale unknown per observation. Parameter blocks: c, X.
+// The Jacobians include the derivative of d, so they are exact.
+class ProjectedRayResidual : public ceres::SizedCostFunction<3, 3, 3> {
+ public:
+  ProjectedRayResidual(const Eigen::Vector3d& ray_in_world, double min_scale)
+      : ray_in_world_(ray_in_world), min_scale_(min_scale) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const Eigen::Map<const Eigen::Vector3d> center(parameters[0]);
+    const Eigen::Map<const Eigen::Vector3d> point(parameters[1]);
+    const Eigen::Vector3d diff = point - center;
+    const double squared_norm = diff.squaredNorm();
+    const double projection = ray_in_world_.dot(diff);
+    const bool clamped =
+        !(squared_norm > 0) || !(projection > min_scale_ * squared_norm);
+    const double scale = clamped ? min_scale_ : projection / squared_norm;
+    Eigen::Map<Eigen::Vector3d> residual(residuals);
+    residual = ray_in_world_ - scale * diff;
+    if (jacobians == nullptr) return true;
+    // d (d w) / d w: d I when clamped, else
+    // (w v^T + <v, w> I) / |w|^2 - 2 <v, w> w w^T / |w|^4.
+    Eigen::Matrix3d d_scaled_diff = scale * Eigen::Matrix3d::Identity();
+    if (!clamped) {
+      d_scaled_diff += (diff * ray_in_world_.transpose() -
+                        2 * scale * diff * diff.transpose()) /
+                       squared_norm;
+    }
+    // r = v - d w: d r / d c = + d (d w) / d w, d r / d X = - that.
+    using RowMajor = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+    if (jacobians[0] != nullptr) {
+      Eigen::Map<RowMajor> d_residual_d_center(jacobians[0]);
+      d_residual_d_center = d_scaled_diff;
+    }
+    if (jacobians[1] != nullptr) {
+      Eigen::Map<RowMajor> d_residual_d_point(jacobians[1]);
+      d_residual_d_point = -d_scaled_diff;
+    }
+    return true;
+  }
+
+ private:
+  const Eigen::Vector3d ray_in_world_;
+  const double min_scale_;
+};
 
 }  // namespace glomap
