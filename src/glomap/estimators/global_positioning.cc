@@ -116,6 +116,20 @@ double RayNoisePerAxis(const PositioningData& data,
   return norms[norms.size() / 2] / std::sqrt(2 * std::log(2.0));
 }
 
+// Every scale at its best value for the current centres and points
+// (BestRayScale).
+void SetBestScales(const PositioningData& data, double min_scale,
+                   PositioningState* state) {
+  state->scales.resize(data.observations.size());
+  for (size_t k = 0; k < data.observations.size(); ++k) {
+    const Observation& obs = data.observations[k];
+    state->scales[k] = BestRayScale(
+        data.rays_in_world[k],
+        state->points[obs.point_idx] - state->centers[obs.image_idx],
+        min_scale);
+  }
+}
+
 // The start of the joint solve from given centres (state->centers): each
 // point where its rays pass closest (the least-squares point of the rays), or,
 // when the rays are near parallel or the point would lie behind one of its
@@ -171,14 +185,7 @@ void TriangulateStart(const PositioningData& data,
     state->points[p] = state->centers[data.observations[first].image_idx] +
                        median_depth * data.rays_in_world[first];
   }
-  state->scales.resize(data.observations.size());
-  for (size_t k = 0; k < data.observations.size(); ++k) {
-    const Observation& obs = data.observations[k];
-    state->scales[k] = BestRayScale(
-        data.rays_in_world[k],
-        state->points[obs.point_idx] - state->centers[obs.image_idx],
-        min_scale);
-  }
+  SetBestScales(data, min_scale, state);
   if (!state->scales.empty() && state->scales[0] <= 2 * min_scale) {
     state->scales[0] = 1 / median_depth;
   }
@@ -338,14 +345,7 @@ Status SolvePositions(const GlobalPositioningOptions& options,
   if (!AllFinite(centers) || !AllFinite(points)) {
     return Status::Error("Global positioning: non-finite solution.");
   }
-  if (project_out_scales) {
-    for (size_t k = 0; k < observations.size(); ++k) {
-      const Observation& obs = observations[k];
-      scales[k] = BestRayScale(data.rays_in_world[k],
-                               points[obs.point_idx] - centers[obs.image_idx],
-                               options.min_scale);
-    }
-  }
+  if (project_out_scales) SetBestScales(data, options.min_scale, state);
   return Status::Ok();
 }
 

@@ -6,7 +6,6 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Core>
-#include <Eigen/Dense>
 #include <algorithm>
 
 namespace glomap {
@@ -75,11 +74,8 @@ class ProjectedRayResidual : public ceres::SizedCostFunction<3, 3, 3> {
     const Eigen::Map<const Eigen::Vector3d> center(parameters[0]);
     const Eigen::Map<const Eigen::Vector3d> point(parameters[1]);
     const Eigen::Vector3d diff = point - center;
-    const double squared_norm = diff.squaredNorm();
-    const double projection = ray_in_world_.dot(diff);
-    const bool clamped =
-        !(squared_norm > 0) || !(projection > min_scale_ * squared_norm);
-    const double scale = clamped ? min_scale_ : projection / squared_norm;
+    const double scale = BestRayScale(ray_in_world_, diff, min_scale_);
+    const bool clamped = !(scale > min_scale_);
     Eigen::Map<Eigen::Vector3d> residual(residuals);
     residual = ray_in_world_ - scale * diff;
     if (jacobians == nullptr) return true;
@@ -89,7 +85,7 @@ class ProjectedRayResidual : public ceres::SizedCostFunction<3, 3, 3> {
     if (!clamped) {
       d_scaled_diff += (diff * ray_in_world_.transpose() -
                         2 * scale * diff * diff.transpose()) /
-                       squared_norm;
+                       diff.squaredNorm();
     }
     // r = v - d w: d r / d c = + d (d w) / d w, d r / d X = - that.
     using RowMajor = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
