@@ -287,6 +287,40 @@ TEST(Retriangulation, WithBundleAdjustment) {
   EXPECT_TRUE(reconstruction.ExistsImage(kUnregisteredId));
 }
 
+// A final bundle adjustment over a budget holds a part of the points; the
+// model keeps every point, and the points left out of the solve fit the
+// final poses as well as the others.
+TEST(Retriangulation, FinalBundleAdjustmentOverItsBudget) {
+  Scene scene = MakeScene(20, 2000, 0.05, 2);
+  colmap::Reconstruction whole = scene.reconstruction;
+  ASSERT_TRUE(
+      Retriangulate(RetriangulationOptions(), scene.view_graph, &whole).ok());
+  colmap::Reconstruction budget = scene.reconstruction;
+  RetriangulationOptions options;
+  options.final_ba_max_num_observations =
+      static_cast<int>(whole.ComputeNumObservations() / 4);
+  ASSERT_TRUE(Retriangulate(options, scene.view_graph, &budget).ok());
+  const PointStats whole_stats = Evaluate(scene, whole);
+  const PointStats budget_stats = Evaluate(scene, budget);
+  std::cout << "points " << whole_stats.num_points << " / "
+            << budget_stats.num_points << ", wrong observations "
+            << whole_stats.num_wrong_observations << " / "
+            << budget_stats.num_wrong_observations << std::endl;
+  EXPECT_GT(budget_stats.num_points, 0.98 * whole_stats.num_points);
+  EXPECT_LT(budget_stats.num_wrong_observations,
+            0.01 * budget_stats.num_observations);
+  const auto mean_error = [](const colmap::Reconstruction& reconstruction) {
+    double sum = 0;
+    for (const auto& point3D : reconstruction.Points3D()) {
+      sum += point3D.second.Error();
+    }
+    return sum / reconstruction.NumPoints3D();
+  };
+  std::cout << "mean reprojection error " << mean_error(whole) << " / "
+            << mean_error(budget) << " px" << std::endl;
+  EXPECT_LT(mean_error(budget), 1.05 * mean_error(whole));
+}
+
 // COLMAP's triangulator skips cameras whose parameters it deems bogus (an
 // extra parameter above 1, or a focal outside [0.1, 10] x the image size);
 // retriangulation uses the model's cameras as they are. Before, a camera

@@ -375,6 +375,11 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
   b.Advanced("tri_final_ba_loss_scale_px", &tri.final_ba_loss_scale_px,
              "Robust loss scale of the final bundle adjustment [px, 0: least "
              "squares]");
+  b.Advanced("tri_final_ba_max_num_observations",
+             &tri.final_ba_max_num_observations,
+             "Observations of the final bundle adjustment; above, it holds "
+             "the longest tracks spread over every image and the other "
+             "points follow its poses [observations, 0: no limit]");
 
   b.Group("Camera clustering");
   auto& cc = o->clustering;

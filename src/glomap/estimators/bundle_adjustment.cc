@@ -12,12 +12,14 @@
 #include <sstream>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
 #include "base/camera_models.h"
 #include "base/cost_functions.h"
 #include "glomap/estimators/cost_functions/pose_manifold.h"
+#include "glomap/estimators/point_refinement.h"
 #include "glomap/processors/track_filters.h"
 #include "glomap/util/ceres_interrupt.h"
 #include "glomap/util/ceres_threads.h"
@@ -79,9 +81,11 @@ Gauge ChooseGauge(const colmap::Reconstruction& reconstruction,
 // solution. A part with fewer priors keeps the gauge above (its pose and
 // scale as they are, i.e. as global positioning's alignment left them in the
 // prior frame), its priors only pulling its shape.
-std::vector<Gauge> ChooseGauges(const colmap::Reconstruction& reconstruction,
-                                const std::vector<colmap::image_t>& image_ids,
-                                const PositionPriorTerm* priors) {
+std::vector<Gauge> ChooseGauges(
+    const colmap::Reconstruction& reconstruction,
+    const std::vector<colmap::image_t>& image_ids,
+    const std::unordered_set<colmap::point3D_t>& left_out,
+    const PositionPriorTerm* priors) {
   if (priors == nullptr || priors->empty()) {
     return {ChooseGauge(reconstruction, image_ids)};
   }
@@ -89,6 +93,7 @@ std::vector<Gauge> ChooseGauges(const colmap::Reconstruction& reconstruction,
   for (size_t i = 0; i < image_ids.size(); ++i) index_of_id[image_ids[i]] = i;
   UnionFind<size_t> components(image_ids.size());
   for (const auto& [point3D_id, point3D] : reconstruction.Points3D()) {
+    if (left_out.count(point3D_id) > 0) continue;
     const std::vector<colmap::TrackElement>& elements =
         point3D.Track().Elements();
     for (size_t k = 1; k < elements.size(); ++k) {
@@ -606,9 +611,11 @@ int ClampToBounds(const std::vector<std::pair<double, double>>& bounds,
 Status Solve(const GlobalBundleAdjustmentOptions& options,
              const colmap::BundleAdjustmentOptions& ba_options,
              const std::vector<colmap::image_t>& image_ids,
-             const std::vector<Gauge>& gauges, const PositionPriorTerm* priors,
-             bool fix_rotations, colmap::Reconstruction* reconstruction,
-             int* num_iterations, HeldParams* held, int* num_clamped) {
+             const std::vector<Gauge>& gauges,
+             const std::unordered_set<colmap::point3D_t>& left_out,
+             const PositionPriorTerm* priors, bool fix_rotations,
+             colmap::Reconstruction* reconstruction, int* num_iterations,
+             HeldParams* held, int* num_clamped) {
   *num_clamped = 0;
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -639,7 +646,9 @@ Status Solve(const GlobalBundleAdjustmentOptions& options,
     }
     bool has_residuals = false;
     for (const colmap::Point2D& point2D : image.Points2D()) {
-      if (!point2D.HasPoint3D()) continue;
+      if (!point2D.HasPoint3D() || left_out.count(point2D.Point3DId()) > 0) {
+        continue;
+      }
       colmap::Point3D& point3D = reconstruction->Point3D(point2D.Point3DId());
       ceres::CostFunction* cost_function = nullptr;
       if (fix_rotations) {
@@ -954,6 +963,98 @@ std::vector<std::pair<double, double>> IntrinsicsBounds(
   return bounds;
 }
 
+std::unordered_set<colmap::point3D_t> PointsLeftOutOfSolve(
+    const colmap::Reconstruction& reconstruction, int tracks_per_image) {
+  std::unordered_set<colmap::point3D_t> left_out;
+  if (tracks_per_image <= 0) return left_out;
+  constexpr int kNumCells = kSolveGridSize * kSolveGridSize;
+  const int tracks_per_cell = (tracks_per_image + kNumCells - 1) / kNumCells;
+  std::vector<std::pair<size_t, colmap::point3D_t>> by_length;
+  by_length.reserve(reconstruction.NumPoints3D());
+  for (const auto& [point3D_id, point3D] : reconstruction.Points3D()) {
+    by_length.emplace_back(point3D.Track().Length(), point3D_id);
+  }
+  std::sort(
+      by_length.begin(), by_length.end(), [](const auto& a, const auto& b) {
+        return a.first != b.first ? a.first > b.first : a.second < b.second;
+      });
+  // The cell of an observation in its image's kSolveGridSize^2 grid.
+  const auto cell_of = [&](const colmap::TrackElement& element) {
+    const colmap::Image& image = reconstruction.Image(element.image_id);
+    const colmap::Camera& camera = reconstruction.Camera(image.CameraId());
+    const Eigen::Vector2d& xy = image.Point2D(element.point2D_idx).XY();
+    const auto index = [](double value, size_t size) {
+      const int cell = static_cast<int>(
+          std::floor(value / std::max<size_t>(size, 1) * kSolveGridSize));
+      return std::clamp(cell, 0, kSolveGridSize - 1);
+    };
+    return static_cast<int64_t>(element.image_id) * kNumCells +
+           index(xy.y(), camera.Height()) * kSolveGridSize +
+           index(xy.x(), camera.Width());
+  };
+  std::unordered_map<int64_t, int> num_taken;  // By image and cell.
+  for (const auto& [length, point3D_id] : by_length) {
+    const std::vector<colmap::TrackElement>& elements =
+        reconstruction.Point3D(point3D_id).Track().Elements();
+    const bool needed = std::any_of(
+        elements.begin(), elements.end(),
+        [&](const colmap::TrackElement& element) {
+          const auto found = num_taken.find(cell_of(element));
+          return found == num_taken.end() || found->second < tracks_per_cell;
+        });
+    if (!needed) {
+      left_out.insert(point3D_id);
+      continue;
+    }
+    for (const colmap::TrackElement& element : elements) {
+      ++num_taken[cell_of(element)];
+    }
+  }
+  return left_out;
+}
+
+namespace {
+
+// Observations of the points of `reconstruction` not in `left_out`.
+size_t NumSolveObservations(
+    const colmap::Reconstruction& reconstruction,
+    const std::unordered_set<colmap::point3D_t>& left_out) {
+  size_t num_observations = 0;
+  for (const auto& [point3D_id, point3D] : reconstruction.Points3D()) {
+    if (left_out.count(point3D_id) == 0) {
+      num_observations += point3D.Track().Length();
+    }
+  }
+  return num_observations;
+}
+
+}  // namespace
+
+int SolveTracksPerImageWithin(const colmap::Reconstruction& reconstruction,
+                              size_t max_num_observations) {
+  if (reconstruction.ComputeNumObservations() <= max_num_observations) {
+    return 0;
+  }
+  // A quota of the most observations any image has takes every point.
+  int high = 1;
+  for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
+    high = std::max(
+        high, static_cast<int>(reconstruction.Image(image_id).NumPoints3D()));
+  }
+  int low = 1;
+  while (low < high) {
+    const int middle = low + (high - low + 1) / 2;
+    if (NumSolveObservations(reconstruction,
+                             PointsLeftOutOfSolve(reconstruction, middle)) <=
+        max_num_observations) {
+      low = middle;
+    } else {
+      high = middle - 1;
+    }
+  }
+  return low;
+}
+
 Status GlobalBundleAdjustmentOptions::Check(const std::string& prefix) const {
   OptionChecker check(prefix);
   check.AtLeast("intrinsics_prior_px", intrinsics_prior_px, 0);
@@ -976,6 +1077,7 @@ Status GlobalBundleAdjustmentOptions::Check(const std::string& prefix) const {
   check.MinusOneOrAtLeast("num_threads", num_threads, 1);
   check.AtLeast("min_residuals_per_ceres_thread",
                 min_residuals_per_ceres_thread, 1);
+  check.AtLeast("solve_tracks_per_image", solve_tracks_per_image, 0);
   return check.status();
 }
 
@@ -1022,17 +1124,32 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
   // A solve that moved intrinsics beyond their bounds runs again with them
   // held (each parameter at most once; they stay held in later rounds).
   HeldParams held;
+  // The points a solve left out follow its poses (see
+  // solve_tracks_per_image).
+  PointRefinementOptions refinement_options;
+  refinement_options.num_threads = options.num_threads;
+  refinement_options.loss_scale_px = options.loss_scale_px;
+  const auto RefineLeftOut =
+      [&](const std::unordered_set<colmap::point3D_t>& left_out) {
+        if (left_out.empty()) return Status::Ok();
+        std::vector<colmap::point3D_t> ids(left_out.begin(), left_out.end());
+        std::sort(ids.begin(), ids.end());
+        return RefinePointsWithFixedPoses(refinement_options, ids,
+                                          reconstruction, interrupt);
+      };
   const auto SolveWithinBounds =
       [&](bool fix_rotations, const std::vector<colmap::image_t>& image_ids,
-          const std::vector<Gauge>& gauges, int* num_iterations) {
+          const std::vector<Gauge>& gauges,
+          const std::unordered_set<colmap::point3D_t>& left_out,
+          int* num_iterations) {
         for (;;) {
           int num_clamped = 0;
-          const Status status = Solve(options, ba_options, image_ids, gauges,
-                                      priors, fix_rotations, reconstruction,
-                                      num_iterations, &held, &num_clamped);
-          if (!status.ok() || num_clamped == 0 || interrupt.IsStopped()) {
-            return status;
-          }
+          const Status status =
+              Solve(options, ba_options, image_ids, gauges, left_out, priors,
+                    fix_rotations, reconstruction, num_iterations, &held,
+                    &num_clamped);
+          if (!status.ok() || interrupt.IsStopped()) return status;
+          if (num_clamped == 0) return RefineLeftOut(left_out);
         }
       };
 
@@ -1051,8 +1168,19 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
           "Bundle adjustment needs at least two registered images with 3D "
           "points.");
     }
+    const std::unordered_set<colmap::point3D_t> left_out =
+        PointsLeftOutOfSolve(*reconstruction, options.solve_tracks_per_image);
+    if (!left_out.empty()) {
+      LOG(INFO) << "Global BA round: the solves hold "
+                << reconstruction->NumPoints3D() - left_out.size() << " of "
+                << reconstruction->NumPoints3D() << " points ("
+                << NumSolveObservations(*reconstruction, left_out) << " of "
+                << reconstruction->ComputeNumObservations()
+                << " observations; solve_tracks_per_image "
+                << options.solve_tracks_per_image << ")";
+    }
     const std::vector<Gauge> gauges =
-        ChooseGauges(*reconstruction, image_ids, priors);
+        ChooseGauges(*reconstruction, image_ids, left_out, priors);
 
     // Rotations are held fixed only in the first solve, right after global
     // positioning, where the positions are coarse and the rotations from
@@ -1062,7 +1190,7 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
     if (!options.skip_fixed_rotation_stage && first_round) {
       step_frame_to_priors(gauges);
       const Status status =
-          SolveWithinBounds(/*fix_rotations=*/true, image_ids, gauges,
+          SolveWithinBounds(/*fix_rotations=*/true, image_ids, gauges, left_out,
                             &num_fixed_rotation_iterations);
       if (!status.ok()) return status;
       if (interrupt.IsStopped()) return Status::Cancelled();
@@ -1070,8 +1198,9 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
     int num_joint_iterations = 0;
     if (!options.skip_joint_stage) {
       step_frame_to_priors(gauges);
-      const Status status = SolveWithinBounds(
-          /*fix_rotations=*/false, image_ids, gauges, &num_joint_iterations);
+      const Status status =
+          SolveWithinBounds(/*fix_rotations=*/false, image_ids, gauges,
+                            left_out, &num_joint_iterations);
       if (!status.ok()) return status;
       if (interrupt.IsStopped()) return Status::Cancelled();
     }

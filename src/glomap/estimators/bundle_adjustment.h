@@ -11,6 +11,7 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -156,6 +157,18 @@ struct GlobalBundleAdjustmentOptions {
   // than this fraction of all tracks, even at the tightest threshold.
   double min_changed_tracks_ratio = 0.001;
 
+  // Points of each solve (0: all). Above 0, a solve holds only the points
+  // needed for every image to observe this many of them spread over the
+  // image, longest tracks first (PointsLeftOutOfSolve); the points left
+  // out are refined after each solve with the poses fixed
+  // (RefinePointsWithFixedPoses, with the same loss), so that filtering
+  // and normalization see every point at the new poses. A solve's memory
+  // and time grow with its observations, and the noise of its poses about
+  // with the inverse square root of their number: this is for models too
+  // large to solve whole (RetriangulationOptions::
+  // final_ba_max_num_observations).
+  int solve_tracks_per_image = 0;
+
   // Skip the solve with fixed rotations (first round only; of the
   // intrinsics it refines the focal lengths alone), or the joint solve, in
   // every round.
@@ -213,6 +226,25 @@ Status RunGlobalBundleAdjustment(
     colmap::Reconstruction* reconstruction, const Interrupt& interrupt = {},
     const std::function<void()>& on_round_done = {},
     const PositionPriorTerm* priors = nullptr);
+
+// The points a solve leaves out when every image is to observe
+// `tracks_per_image` of the points it holds, spread over the image
+// (solve_tracks_per_image; none if 0). Each image is cut into a
+// kSolveGridSize x kSolveGridSize grid, and each cell is to hold
+// ceil(tracks_per_image / kSolveGridSize^2) observations: points are taken
+// by decreasing track length (then by id), each while some observation of
+// its track falls in a cell that holds fewer; the rest are left out. Every
+// cell keeps at least min(its quota, its number of observations). Spread
+// points fix a pose better than the same number bunched together.
+constexpr int kSolveGridSize = 4;
+std::unordered_set<colmap::point3D_t> PointsLeftOutOfSolve(
+    const colmap::Reconstruction& reconstruction, int tracks_per_image);
+
+// The largest solve_tracks_per_image whose solve holds at most
+// `max_num_observations` observations of `reconstruction` (bisection over
+// PointsLeftOutOfSolve; at least 1), or 0 if all of them fit.
+int SolveTracksPerImageWithin(const colmap::Reconstruction& reconstruction,
+                              size_t max_num_observations);
 
 // Refines each image of `image_ids` on its own: its pose and its camera's
 // intrinsics (the groups that `options` refines, with its intrinsics prior

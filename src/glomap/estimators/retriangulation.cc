@@ -8,12 +8,10 @@
 
 #include "base/correspondence_graph.h"
 #include "base/database_cache.h"
+#include "glomap/estimators/point_refinement.h"
 #include "glomap/processors/track_filters.h"
-#include "glomap/util/ceres_interrupt.h"
-#include "glomap/util/ceres_threads.h"
 #include "glomap/util/options_check.h"
 #include "glomap/util/return_freed_memory.h"
-#include "optim/bundle_adjustment.h"
 #include "sfm/incremental_triangulator.h"
 #include "util/logging.h"
 #include "util/threading.h"
@@ -55,31 +53,6 @@ size_t CompleteAndMergeTracks(
   return num_completed + num_merged;
 }
 
-// The extent Reconstruction::Normalize scales to 10 (its default): the
-// diagonal of the box between the 10th and 90th percentiles of the
-// registered camera centres' coordinates.
-constexpr double kNormalizedExtent = 10.0;
-double NormalizeExtent(const colmap::Reconstruction& reconstruction) {
-  std::vector<double> coordinates[3];
-  for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
-    const Eigen::Vector3d center =
-        reconstruction.Image(image_id).ProjectionCenter();
-    for (int axis = 0; axis < 3; ++axis) {
-      coordinates[axis].push_back(center(axis));
-    }
-  }
-  if (coordinates[0].size() < 2) return kNormalizedExtent;
-  Eigen::Vector3d low;
-  Eigen::Vector3d high;
-  for (int axis = 0; axis < 3; ++axis) {
-    std::vector<double>& values = coordinates[axis];
-    std::sort(values.begin(), values.end());
-    low(axis) = values[static_cast<size_t>(0.1 * (values.size() - 1))];
-    high(axis) = values[static_cast<size_t>(0.9 * (values.size() - 1))];
-  }
-  return (high - low).norm();
-}
-
 }  // namespace
 
 Status RetriangulationOptions::Check(const std::string& prefix) const {
@@ -97,13 +70,13 @@ Status RetriangulationOptions::Check(const std::string& prefix) const {
   check.AtLeast("max_refinement_change", max_refinement_change, 0);
   check.AtLeast("max_num_structure_iterations", max_num_structure_iterations,
                 1);
-  check.AtLeast("structure_gradient_tolerance", structure_gradient_tolerance,
-                0);
   check.GreaterThan("filter_max_reproj_error_px", filter_max_reproj_error_px,
                     0);
   check.AtLeast("filter_min_tri_angle_deg", filter_min_tri_angle_deg, 0);
   check.AtLeast("final_ba_max_num_iterations", final_ba_max_num_iterations, 1);
   check.AtLeast("final_ba_loss_scale_px", final_ba_loss_scale_px, 0);
+  check.AtLeast("final_ba_max_num_observations", final_ba_max_num_observations,
+                0);
   check.Add(bundle_adjustment.Check(prefix + "bundle_adjustment."));
   return check.status();
 }
@@ -132,8 +105,7 @@ Status TriangulateWithFixedPoses(
     const RetriangulationOptions& options, const ViewGraph& view_graph,
     const colmap::Reconstruction& reconstruction,
     const std::vector<colmap::image_t>& registered_ids,
-    const Interrupt& interrupt, const PositionPriorTerm* priors,
-    TriangulatedPoints* result) {
+    const Interrupt& interrupt, TriangulatedPoints* result) {
   const std::unordered_set<colmap::image_t> registered(registered_ids.begin(),
                                                        registered_ids.end());
 
@@ -209,46 +181,24 @@ Status TriangulateWithFixedPoses(
   result->num_triangulated = work.NumPoints3D();
 
   // Structure-only refinement, as COLMAP's point_triangulator: poses and
-  // intrinsics stay fixed, so the points can be refined without a gauge and
-  // independently of each other.
-  InterruptCallback callback(interrupt);
-  colmap::BundleAdjustmentOptions ba_options;
-  ba_options.refine_focal_length = false;
-  ba_options.refine_principal_point = false;
-  ba_options.refine_extra_params = false;
-  ba_options.refine_extrinsics = false;
-  ba_options.print_summary = false;
-  ba_options.solver_options.max_num_iterations =
-      options.max_num_structure_iterations;
-  ba_options.solver_options.gradient_tolerance =
-      options.structure_gradient_tolerance;
-  if (priors != nullptr && !priors->empty()) {
-    // Ceres' gradient tolerance is absolute, in residual^2 per unit of the
-    // point coordinates, and structure_gradient_tolerance was chosen for
-    // normalised scenes (Reconstruction::Normalize: extent 10). A model in
-    // the priors' metres is not normalised, so the tolerance follows its
-    // extent (else a 500 m street would stop 50x earlier).
-    ba_options.solver_options.gradient_tolerance *=
-        kNormalizedExtent /
-        std::max(NormalizeExtent(work), std::numeric_limits<double>::min());
-  }
-  ba_options.solver_options.logging_type = ceres::SILENT;
-  ba_options.solver_options.callbacks.push_back(&callback);
-  colmap::BundleAdjustmentConfig ba_config;
-  for (const colmap::image_t image_id : triangulated_ids) {
-    ba_config.AddImage(image_id);
-  }
+  // intrinsics stay fixed, so each point is refined alone
+  // (RefinePointsWithFixedPoses).
+  PointRefinementOptions refinement_options;
+  refinement_options.max_num_iterations = options.max_num_structure_iterations;
+  refinement_options.num_threads = options.bundle_adjustment.num_threads;
   for (int i = 0; i < options.max_refinements; ++i) {
     if (interrupt.IsStopped()) return Status::Cancelled();
     work.FilterObservationsWithNegativeDepth();
     const size_t num_observations = work.ComputeNumObservations();
     if (num_observations == 0) break;
-    ba_options.solver_options.num_threads = CeresNumThreads(
-        options.bundle_adjustment.num_threads, num_observations,
-        options.bundle_adjustment.min_residuals_per_ceres_thread);
-    colmap::BundleAdjuster bundle_adjuster(ba_options, ba_config);
-    if (!bundle_adjuster.Solve(&work)) break;
-    if (interrupt.IsStopped()) return Status::Cancelled();
+    PointRefinementSummary summary;
+    const Status refinement = RefinePointsWithFixedPoses(
+        refinement_options, /*point3D_ids=*/{}, &work, interrupt, &summary);
+    if (!refinement.ok()) return refinement;
+    VLOG(3) << "Retriangulation: structure-only refinement of "
+            << summary.num_points << " points (" << summary.num_observations
+            << " observations), cost " << summary.initial_cost << " -> "
+            << summary.final_cost << " px^2";
     size_t num_changed = CompleteAndMergeTracks(tri_options, &triangulator);
     num_changed += work.FilterAllPoints3D(options.filter_max_reproj_error_px,
                                           options.filter_min_tri_angle_deg);
@@ -291,9 +241,9 @@ Status Retriangulate(const RetriangulationOptions& options,
         "Retriangulation needs at least two registered images.");
   }
   TriangulatedPoints triangulated;
-  const Status triangulation = TriangulateWithFixedPoses(
-      options, view_graph, *reconstruction, registered_ids, interrupt, priors,
-      &triangulated);
+  const Status triangulation =
+      TriangulateWithFixedPoses(options, view_graph, *reconstruction,
+                                registered_ids, interrupt, &triangulated);
   if (!triangulation.ok()) return triangulation;
 
   // Replace the points of `reconstruction` by the new ones. Images share ids
@@ -313,9 +263,25 @@ Status Retriangulate(const RetriangulationOptions& options,
           << num_old_points3D << " before), " << timer.ElapsedSeconds() << " s";
 
   if (options.run_bundle_adjustment) {
-    const Status status = RunGlobalBundleAdjustment(
-        options.bundle_adjustment, reconstruction, interrupt,
-        /*on_round_done=*/{}, priors);
+    GlobalBundleAdjustmentOptions final_ba = options.bundle_adjustment;
+    const size_t num_observations = reconstruction->ComputeNumObservations();
+    const size_t max_num_observations =
+        static_cast<size_t>(options.final_ba_max_num_observations);
+    if (max_num_observations > 0 && num_observations > max_num_observations) {
+      final_ba.solve_tracks_per_image =
+          SolveTracksPerImageWithin(*reconstruction, max_num_observations);
+      LOG(INFO) << "Retriangulation: " << num_observations
+                << " observations, above tri_final_ba_max_num_observations ("
+                << max_num_observations
+                << "): the final bundle adjustment solves the longest tracks "
+                   "that give every image "
+                << final_ba.solve_tracks_per_image
+                << " spread over it, and refines the other points with the "
+                   "poses fixed";
+    }
+    const Status status =
+        RunGlobalBundleAdjustment(final_ba, reconstruction, interrupt,
+                                  /*on_round_done=*/{}, priors);
     if (!status.ok()) return status;
   }
   UpdatePointErrors(reconstruction);

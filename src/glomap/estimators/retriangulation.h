@@ -42,17 +42,11 @@ struct RetriangulationOptions {
   // follows refines every point again, with the poses.
   int max_refinements = 1;
   double max_refinement_change = 0.0005;
-  // Iterations of each structure-only BA. Its only job is to bring the new
-  // points close enough for the reprojection filter that follows; the full
-  // bundle adjustment refines them again. 10 instead of COLMAP's 50 gives
-  // the same models on all six shared datasets and saves 0.4-0.6 s on
-  // KITTI_sequence_1 and templeRing.
+  // Levenberg-Marquardt iterations per point of each structure-only
+  // refinement (RefinePointsWithFixedPoses). Its only job is to bring the
+  // new points close enough for the reprojection filter that follows; the
+  // full bundle adjustment refines them again.
   int max_num_structure_iterations = 10;
-  // Its Ceres gradient_tolerance (that of COLMAP's global bundle
-  // adjustment; COLMAP's BundleAdjustmentOptions default 0 would stop only
-  // on the other criteria).
-  // Not a GlobalMapper.* option (a solver tolerance, set in the code only).
-  double structure_gradient_tolerance = 1.0;
 
   // Filter of the refinement loop (COLMAP mapper defaults).
   double filter_max_reproj_error_px = 4.0;
@@ -78,6 +72,15 @@ struct RetriangulationOptions {
   // on 40 images 89.6 instead of 90.0 (seeds 0-3); the shared datasets are
   // not measured with it yet, so the default stays 1 px.
   double final_ba_loss_scale_px = 1.0;
+  // Observations the final bundle adjustment may hold (0: no limit). A
+  // model with more has its final bundle adjustment run on a part of its
+  // points: the longest tracks that give every image the same number of
+  // observations spread over it, that number the largest that keeps the
+  // solve within this limit (GlobalBundleAdjustmentOptions::
+  // solve_tracks_per_image, SolveTracksPerImageWithin); the other points
+  // follow the new poses, each refined alone. The solve's memory and time
+  // grow with its observations (about 0.7 KB each).
+  int final_ba_max_num_observations = 500000;
   GlobalBundleAdjustmentOptions bundle_adjustment = [] {
     GlobalBundleAdjustmentOptions ba_options;
     ba_options.num_rounds = 1;
