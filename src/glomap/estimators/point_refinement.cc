@@ -126,15 +126,14 @@ bool Linearize(const std::vector<Observation>& observations,
 // steps.
 double RefinePoint(const PointRefinementOptions& options,
                    const std::vector<Observation>& observations,
-                   double initial_cost, Linearization linearization,
-                   Eigen::Vector3d* xyz) {
+                   Linearization linearization, Eigen::Vector3d* xyz) {
   constexpr double kMinDiagonal = 1e-6;
   constexpr double kMaxDiagonal = 1e32;
   constexpr double kMinMu = 1e-32;
   double mu = 1e-4;
   double mu_growth = 2;
   Linearization trial;
-  double cost = initial_cost;
+  double cost = linearization.cost;
   for (int iteration = 0; iteration < options.max_num_iterations; ++iteration) {
     if (cost <= 0) break;
     Eigen::Matrix3d damped = linearization.jtj;
@@ -239,8 +238,8 @@ Status RefinePointsWithFixedPoses(
         continue;
       }
       initial_costs[i] = linearization.cost;
-      final_costs[i] = RefinePoint(options, observations, linearization.cost,
-                                   linearization, &refined[i]);
+      final_costs[i] =
+          RefinePoint(options, observations, linearization, &refined[i]);
     }
     block_done[block] = 1;
   });
