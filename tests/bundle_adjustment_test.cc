@@ -679,12 +679,25 @@ TEST(PointsLeftOutOfSolve, QuotaWithinABudgetIsTheLargestThatFits) {
     }
     return count;
   };
-  for (const size_t budget : {num_observations / 2, num_observations / 5}) {
+  const size_t floor =
+      kMinSolveObservationsPerImage * reconstruction.NumRegImages();
+  ASSERT_LT(floor, 2 * num_observations / 3);
+  for (const size_t budget :
+       {2 * num_observations / 3, 3 * num_observations / 4}) {
     const int quota = SolveTracksPerImageWithin(reconstruction, budget);
+    std::cout << "budget " << budget << " of " << num_observations << ": quota "
+              << quota << std::endl;
     ASSERT_GT(quota, 0);
     EXPECT_LE(solve_observations(quota), budget);
     EXPECT_GT(solve_observations(quota + 1), budget);
   }
+  // A smaller budget is raised to kMinSolveObservationsPerImage per image.
+  const int quota =
+      SolveTracksPerImageWithin(reconstruction, num_observations / 20);
+  ASSERT_GT(quota, 0);
+  EXPECT_LE(solve_observations(quota), floor);
+  EXPECT_GT(solve_observations(quota + 1), floor);
+  EXPECT_GT(solve_observations(quota), num_observations / 20);
 }
 
 // The points a solve leaves out follow its poses: after the rounds, every
@@ -735,6 +748,50 @@ TEST(GlobalBundleAdjustment, PointsLeftOutOfTheSolveFollowItsPoses) {
     }
   }
   EXPECT_LT(num_outliers_left, 0.02 * outliers.size());
+}
+
+// max_num_solve_observations: a budget that the model fits in changes
+// nothing; a smaller one makes every round's solves hold part of the
+// points, and the poses stay near the truth.
+TEST(GlobalBundleAdjustment, ObservationBudgetHoldsPartOfThePoints) {
+  SceneOptions scene_options;
+  scene_options.outlier_ratio = 0.03;
+  const colmap::Reconstruction truth = MakeScene(scene_options, nullptr);
+  colmap::Reconstruction start = truth;
+  Perturb(/*rotation_deg=*/0.5, /*position_sigma=*/0.05,
+          /*focal_factor=*/1.03, /*seed=*/2, &start);
+  const int num_observations = static_cast<int>(start.ComputeNumObservations());
+  GlobalBundleAdjustmentOptions options;
+  colmap::Reconstruction all_points = start;
+  ASSERT_TRUE(RunGlobalBundleAdjustment(options, &all_points).ok());
+
+  options.max_num_solve_observations = num_observations;
+  colmap::Reconstruction within = start;
+  ASSERT_TRUE(RunGlobalBundleAdjustment(options, &within).ok());
+  options.max_num_solve_observations = num_observations / 2;
+  colmap::Reconstruction budget = start;
+  ASSERT_TRUE(RunGlobalBundleAdjustment(options, &budget).ok());
+
+  double within_change = 0;
+  double budget_change = 0;
+  for (const colmap::image_t image_id : truth.RegImageIds()) {
+    const Eigen::Vector3d center =
+        all_points.Image(image_id).ProjectionCenter();
+    within_change =
+        std::max(within_change,
+                 (within.Image(image_id).ProjectionCenter() - center).norm());
+    budget_change =
+        std::max(budget_change,
+                 (budget.Image(image_id).ProjectionCenter() - center).norm());
+  }
+  EXPECT_EQ(within_change, 0);
+  EXPECT_GT(budget_change, 1e-6);
+  const PoseErrors errors = ComparePoses(budget, truth);
+  std::cout << "budget of half the observations: position error "
+            << errors.max_position_error << ", rotation "
+            << errors.max_rotation_error_deg << " deg" << std::endl;
+  EXPECT_LT(errors.max_position_error, 0.02);  // Scene radius ~6.
+  EXPECT_LT(errors.max_rotation_error_deg, 0.2);
 }
 
 TEST(GlobalBundleAdjustment, InterruptStopsPromptly) {

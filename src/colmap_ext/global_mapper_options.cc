@@ -339,6 +339,12 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
              "Skip the solve with fixed rotations");
   b.Advanced("ba_skip_joint_stage", &ba.skip_joint_stage,
              "Skip the joint solve");
+  b.Advanced("ba_max_num_solve_observations", &ba.max_num_solve_observations,
+             "Observations of each round's solves (at least " +
+                 std::to_string(glomap::kMinSolveObservationsPerImage) +
+                 " per image); above, they hold the longest tracks spread "
+                 "over every image and the other points follow their poses "
+                 "[observations, 0: no limit]");
 
   b.Group("Retriangulation");
   auto& tri = o->retriangulation;
@@ -377,9 +383,11 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
              "squares]");
   b.Advanced("tri_final_ba_max_num_observations",
              &tri.final_ba_max_num_observations,
-             "Observations of the final bundle adjustment; above, it holds "
-             "the longest tracks spread over every image and the other "
-             "points follow its poses [observations, 0: no limit]");
+             "Observations of the final bundle adjustment (at least " +
+                 std::to_string(glomap::kMinSolveObservationsPerImage) +
+                 " per image); above, it holds the longest tracks spread over "
+                 "every image and the other points follow its poses "
+                 "[observations, 0: no limit]");
 
   b.Group("Camera clustering");
   auto& cc = o->clustering;

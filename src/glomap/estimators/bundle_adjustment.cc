@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <memory>
@@ -963,12 +964,22 @@ std::vector<std::pair<double, double>> IntrinsicsBounds(
   return bounds;
 }
 
-std::unordered_set<colmap::point3D_t> PointsLeftOutOfSolve(
-    const colmap::Reconstruction& reconstruction, int tracks_per_image) {
-  std::unordered_set<colmap::point3D_t> left_out;
-  if (tracks_per_image <= 0) return left_out;
+namespace {
+
+// The tracks a solve may hold, in the order they are taken (decreasing
+// length, then id), each observation as the index of its image's grid cell
+// (image index * kSolveGridSize^2 + cell): computed once, so that a choice
+// of the quota costs one pass over the observations.
+struct SolveCandidates {
+  std::vector<colmap::point3D_t> point3D_ids;
+  std::vector<size_t> track_begin;  // point3D_ids.size() + 1 offsets.
+  std::vector<uint32_t> cells;
+  size_t num_cells = 0;
+};
+
+SolveCandidates CollectSolveCandidates(
+    const colmap::Reconstruction& reconstruction) {
   constexpr int kNumCells = kSolveGridSize * kSolveGridSize;
-  const int tracks_per_cell = (tracks_per_image + kNumCells - 1) / kNumCells;
   std::vector<std::pair<size_t, colmap::point3D_t>> by_length;
   by_length.reserve(reconstruction.NumPoints3D());
   for (const auto& [point3D_id, point3D] : reconstruction.Points3D()) {
@@ -978,37 +989,81 @@ std::unordered_set<colmap::point3D_t> PointsLeftOutOfSolve(
       by_length.begin(), by_length.end(), [](const auto& a, const auto& b) {
         return a.first != b.first ? a.first > b.first : a.second < b.second;
       });
-  // The cell of an observation in its image's kSolveGridSize^2 grid.
-  const auto cell_of = [&](const colmap::TrackElement& element) {
-    const colmap::Image& image = reconstruction.Image(element.image_id);
-    const colmap::Camera& camera = reconstruction.Camera(image.CameraId());
-    const Eigen::Vector2d& xy = image.Point2D(element.point2D_idx).XY();
-    const auto index = [](double value, size_t size) {
-      const int cell = static_cast<int>(
-          std::floor(value / std::max<size_t>(size, 1) * kSolveGridSize));
-      return std::clamp(cell, 0, kSolveGridSize - 1);
-    };
-    return static_cast<int64_t>(element.image_id) * kNumCells +
-           index(xy.y(), camera.Height()) * kSolveGridSize +
-           index(xy.x(), camera.Width());
+  std::unordered_map<colmap::image_t, uint32_t> image_index;
+  for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
+    image_index.emplace(image_id, static_cast<uint32_t>(image_index.size()));
+  }
+  const auto cell_index = [](double value, size_t size) {
+    const int cell = static_cast<int>(
+        std::floor(value / std::max<size_t>(size, 1) * kSolveGridSize));
+    return std::clamp(cell, 0, kSolveGridSize - 1);
   };
-  std::unordered_map<int64_t, int> num_taken;  // By image and cell.
+  SolveCandidates candidates;
+  candidates.point3D_ids.reserve(by_length.size());
+  candidates.track_begin.reserve(by_length.size() + 1);
+  candidates.track_begin.push_back(0);
   for (const auto& [length, point3D_id] : by_length) {
-    const std::vector<colmap::TrackElement>& elements =
-        reconstruction.Point3D(point3D_id).Track().Elements();
-    const bool needed = std::any_of(
-        elements.begin(), elements.end(),
-        [&](const colmap::TrackElement& element) {
-          const auto found = num_taken.find(cell_of(element));
-          return found == num_taken.end() || found->second < tracks_per_cell;
-        });
-    if (!needed) {
-      left_out.insert(point3D_id);
+    for (const colmap::TrackElement& element :
+         reconstruction.Point3D(point3D_id).Track().Elements()) {
+      const colmap::Image& image = reconstruction.Image(element.image_id);
+      const colmap::Camera& camera = reconstruction.Camera(image.CameraId());
+      const Eigen::Vector2d& xy = image.Point2D(element.point2D_idx).XY();
+      auto index = image_index.find(element.image_id);
+      if (index == image_index.end()) {  // Not registered: a cell of its own.
+        index = image_index
+                    .emplace(element.image_id,
+                             static_cast<uint32_t>(image_index.size()))
+                    .first;
+      }
+      candidates.cells.push_back(index->second * kNumCells +
+                                 cell_index(xy.y(), camera.Height()) *
+                                     kSolveGridSize +
+                                 cell_index(xy.x(), camera.Width()));
+    }
+    candidates.point3D_ids.push_back(point3D_id);
+    candidates.track_begin.push_back(candidates.cells.size());
+  }
+  candidates.num_cells = image_index.size() * kNumCells;
+  return candidates;
+}
+
+// Whether each candidate is taken at `tracks_per_image` (> 0): while some
+// observation of its track falls in a cell that holds fewer than the
+// cell's quota; the number of observations taken in `num_observations`.
+std::vector<bool> TakeTracks(const SolveCandidates& candidates,
+                             int tracks_per_image, size_t* num_observations) {
+  constexpr int kNumCells = kSolveGridSize * kSolveGridSize;
+  const int tracks_per_cell = (tracks_per_image + kNumCells - 1) / kNumCells;
+  std::vector<int> num_taken(candidates.num_cells, 0);
+  std::vector<bool> taken(candidates.point3D_ids.size(), false);
+  *num_observations = 0;
+  for (size_t i = 0; i < candidates.point3D_ids.size(); ++i) {
+    const auto begin = candidates.cells.begin() + candidates.track_begin[i];
+    const auto end = candidates.cells.begin() + candidates.track_begin[i + 1];
+    if (std::none_of(begin, end, [&](uint32_t cell) {
+          return num_taken[cell] < tracks_per_cell;
+        })) {
       continue;
     }
-    for (const colmap::TrackElement& element : elements) {
-      ++num_taken[cell_of(element)];
-    }
+    for (auto cell = begin; cell != end; ++cell) ++num_taken[*cell];
+    taken[i] = true;
+    *num_observations += end - begin;
+  }
+  return taken;
+}
+
+}  // namespace
+
+std::unordered_set<colmap::point3D_t> PointsLeftOutOfSolve(
+    const colmap::Reconstruction& reconstruction, int tracks_per_image) {
+  std::unordered_set<colmap::point3D_t> left_out;
+  if (tracks_per_image <= 0) return left_out;
+  const SolveCandidates candidates = CollectSolveCandidates(reconstruction);
+  size_t num_observations = 0;
+  const std::vector<bool> taken =
+      TakeTracks(candidates, tracks_per_image, &num_observations);
+  for (size_t i = 0; i < taken.size(); ++i) {
+    if (!taken[i]) left_out.insert(candidates.point3D_ids[i]);
   }
   return left_out;
 }
@@ -1032,21 +1087,28 @@ size_t NumSolveObservations(
 
 int SolveTracksPerImageWithin(const colmap::Reconstruction& reconstruction,
                               size_t max_num_observations) {
+  // A quota of the most observations any image has takes every point.
+  int high = 1;
+  size_t num_images_with_points = 0;
+  for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
+    const int num_points =
+        static_cast<int>(reconstruction.Image(image_id).NumPoints3D());
+    high = std::max(high, num_points);
+    if (num_points > 0) ++num_images_with_points;
+  }
+  max_num_observations =
+      std::max(max_num_observations,
+               kMinSolveObservationsPerImage * num_images_with_points);
   if (reconstruction.ComputeNumObservations() <= max_num_observations) {
     return 0;
   }
-  // A quota of the most observations any image has takes every point.
-  int high = 1;
-  for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
-    high = std::max(
-        high, static_cast<int>(reconstruction.Image(image_id).NumPoints3D()));
-  }
+  const SolveCandidates candidates = CollectSolveCandidates(reconstruction);
   int low = 1;
   while (low < high) {
     const int middle = low + (high - low + 1) / 2;
-    if (NumSolveObservations(reconstruction,
-                             PointsLeftOutOfSolve(reconstruction, middle)) <=
-        max_num_observations) {
+    size_t num_observations = 0;
+    TakeTracks(candidates, middle, &num_observations);
+    if (num_observations <= max_num_observations) {
       low = middle;
     } else {
       high = middle - 1;
@@ -1078,6 +1140,7 @@ Status GlobalBundleAdjustmentOptions::Check(const std::string& prefix) const {
   check.AtLeast("min_residuals_per_ceres_thread",
                 min_residuals_per_ceres_thread, 1);
   check.AtLeast("solve_tracks_per_image", solve_tracks_per_image, 0);
+  check.AtLeast("max_num_solve_observations", max_num_solve_observations, 0);
   return check.status();
 }
 
@@ -1168,16 +1231,30 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
           "Bundle adjustment needs at least two registered images with 3D "
           "points.");
     }
+    int tracks_per_image = options.solve_tracks_per_image;
+    if (tracks_per_image == 0 && options.max_num_solve_observations > 0) {
+      tracks_per_image = SolveTracksPerImageWithin(
+          *reconstruction,
+          static_cast<size_t>(options.max_num_solve_observations));
+    }
     const std::unordered_set<colmap::point3D_t> left_out =
-        PointsLeftOutOfSolve(*reconstruction, options.solve_tracks_per_image);
+        PointsLeftOutOfSolve(*reconstruction, tracks_per_image);
     if (!left_out.empty()) {
-      LOG(INFO) << "Global BA round: the solves hold "
-                << reconstruction->NumPoints3D() - left_out.size() << " of "
-                << reconstruction->NumPoints3D() << " points ("
-                << NumSolveObservations(*reconstruction, left_out) << " of "
-                << reconstruction->ComputeNumObservations()
-                << " observations; solve_tracks_per_image "
-                << options.solve_tracks_per_image << ")";
+      LOG(INFO)
+          << "Global BA round: the solves hold "
+          << reconstruction->NumPoints3D() - left_out.size() << " of "
+          << reconstruction->NumPoints3D() << " points ("
+          << NumSolveObservations(*reconstruction, left_out) << " of "
+          << reconstruction->ComputeNumObservations() << " observations"
+          << (options.solve_tracks_per_image == 0
+                  ? ", budget " +
+                        std::to_string(options.max_num_solve_observations) +
+                        " or " + std::to_string(kMinSolveObservationsPerImage) +
+                        " per image"
+                  : std::string())
+          << "): the longest tracks that give every image " << tracks_per_image
+          << " spread over it; the other points are refined with the "
+             "poses fixed";
     }
     const std::vector<Gauge> gauges =
         ChooseGauges(*reconstruction, image_ids, left_out, priors);

@@ -264,21 +264,7 @@ Status Retriangulate(const RetriangulationOptions& options,
 
   if (options.run_bundle_adjustment) {
     GlobalBundleAdjustmentOptions final_ba = options.bundle_adjustment;
-    const size_t num_observations = reconstruction->ComputeNumObservations();
-    const size_t max_num_observations =
-        static_cast<size_t>(options.final_ba_max_num_observations);
-    if (max_num_observations > 0 && num_observations > max_num_observations) {
-      final_ba.solve_tracks_per_image =
-          SolveTracksPerImageWithin(*reconstruction, max_num_observations);
-      LOG(INFO) << "Retriangulation: " << num_observations
-                << " observations, above tri_final_ba_max_num_observations ("
-                << max_num_observations
-                << "): the final bundle adjustment solves the longest tracks "
-                   "that give every image "
-                << final_ba.solve_tracks_per_image
-                << " spread over it, and refines the other points with the "
-                   "poses fixed";
-    }
+    final_ba.max_num_solve_observations = options.final_ba_max_num_observations;
     const Status status =
         RunGlobalBundleAdjustment(final_ba, reconstruction, interrupt,
                                   /*on_round_done=*/{}, priors);

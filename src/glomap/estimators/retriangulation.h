@@ -76,8 +76,9 @@ struct RetriangulationOptions {
   // model with more has its final bundle adjustment run on a part of its
   // points: the longest tracks that give every image the same number of
   // observations spread over it, that number the largest that keeps the
-  // solve within this limit (GlobalBundleAdjustmentOptions::
-  // solve_tracks_per_image, SolveTracksPerImageWithin); the other points
+  // solve within this limit, which is raised to
+  // kMinSolveObservationsPerImage per image (GlobalBundleAdjustmentOptions::
+  // max_num_solve_observations, SolveTracksPerImageWithin); the other points
   // follow the new poses, each refined alone. The solve's memory and time
   // grow with its observations (about 0.7 KB each).
   int final_ba_max_num_observations = 500000;
