@@ -1052,57 +1052,45 @@ std::vector<bool> TakeTracks(const SolveCandidates& candidates,
   return taken;
 }
 
-}  // namespace
-
-std::unordered_set<colmap::point3D_t> PointsLeftOutOfSolve(
-    const colmap::Reconstruction& reconstruction, int tracks_per_image) {
-  std::unordered_set<colmap::point3D_t> left_out;
-  if (tracks_per_image <= 0) return left_out;
-  const SolveCandidates candidates = CollectSolveCandidates(reconstruction);
-  size_t num_observations = 0;
+// The points of `candidates` not taken at `tracks_per_image` (> 0); the
+// observations of those taken in `num_solve_observations`.
+std::unordered_set<colmap::point3D_t> LeftOut(const SolveCandidates& candidates,
+                                              int tracks_per_image,
+                                              size_t* num_solve_observations) {
   const std::vector<bool> taken =
-      TakeTracks(candidates, tracks_per_image, &num_observations);
+      TakeTracks(candidates, tracks_per_image, num_solve_observations);
+  std::unordered_set<colmap::point3D_t> left_out;
   for (size_t i = 0; i < taken.size(); ++i) {
     if (!taken[i]) left_out.insert(candidates.point3D_ids[i]);
   }
   return left_out;
 }
 
-namespace {
-
-// Observations of the points of `reconstruction` not in `left_out`.
-size_t NumSolveObservations(
-    const colmap::Reconstruction& reconstruction,
-    const std::unordered_set<colmap::point3D_t>& left_out) {
-  size_t num_observations = 0;
-  for (const auto& [point3D_id, point3D] : reconstruction.Points3D()) {
-    if (left_out.count(point3D_id) == 0) {
-      num_observations += point3D.Track().Length();
-    }
-  }
-  return num_observations;
-}
-
-}  // namespace
-
-int SolveTracksPerImageWithin(const colmap::Reconstruction& reconstruction,
-                              size_t max_num_observations) {
-  // A quota of the most observations any image has takes every point.
-  int high = 1;
+// `max_num_observations` raised to kMinSolveObservationsPerImage per image
+// with points.
+size_t RaisedBudget(const colmap::Reconstruction& reconstruction,
+                    size_t max_num_observations) {
   size_t num_images_with_points = 0;
   for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
-    const int num_points =
-        static_cast<int>(reconstruction.Image(image_id).NumPoints3D());
-    high = std::max(high, num_points);
-    if (num_points > 0) ++num_images_with_points;
+    if (reconstruction.Image(image_id).NumPoints3D() > 0) {
+      ++num_images_with_points;
+    }
   }
-  max_num_observations =
-      std::max(max_num_observations,
-               kMinSolveObservationsPerImage * num_images_with_points);
-  if (reconstruction.ComputeNumObservations() <= max_num_observations) {
-    return 0;
+  return std::max(max_num_observations,
+                  kMinSolveObservationsPerImage * num_images_with_points);
+}
+
+// The largest quota whose solve holds at most `max_num_observations` (already
+// raised) observations (bisection over TakeTracks; at least 1).
+int QuotaWithin(const colmap::Reconstruction& reconstruction,
+                const SolveCandidates& candidates,
+                size_t max_num_observations) {
+  // A quota of the most observations any image has takes every point.
+  int high = 1;
+  for (const colmap::image_t image_id : reconstruction.RegImageIds()) {
+    high = std::max(
+        high, static_cast<int>(reconstruction.Image(image_id).NumPoints3D()));
   }
-  const SolveCandidates candidates = CollectSolveCandidates(reconstruction);
   int low = 1;
   while (low < high) {
     const int middle = low + (high - low + 1) / 2;
@@ -1115,6 +1103,26 @@ int SolveTracksPerImageWithin(const colmap::Reconstruction& reconstruction,
     }
   }
   return low;
+}
+
+}  // namespace
+
+std::unordered_set<colmap::point3D_t> PointsLeftOutOfSolve(
+    const colmap::Reconstruction& reconstruction, int tracks_per_image) {
+  if (tracks_per_image <= 0) return {};
+  size_t num_solve_observations = 0;
+  return LeftOut(CollectSolveCandidates(reconstruction), tracks_per_image,
+                 &num_solve_observations);
+}
+
+int SolveTracksPerImageWithin(const colmap::Reconstruction& reconstruction,
+                              size_t max_num_observations) {
+  max_num_observations = RaisedBudget(reconstruction, max_num_observations);
+  if (reconstruction.ComputeNumObservations() <= max_num_observations) {
+    return 0;
+  }
+  return QuotaWithin(reconstruction, CollectSolveCandidates(reconstruction),
+                     max_num_observations);
 }
 
 Status GlobalBundleAdjustmentOptions::Check(const std::string& prefix) const {
@@ -1231,30 +1239,39 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
           "Bundle adjustment needs at least two registered images with 3D "
           "points.");
     }
+    // The points this round's solves leave out (solve_tracks_per_image, or
+    // the quota within max_num_solve_observations).
     int tracks_per_image = options.solve_tracks_per_image;
-    if (tracks_per_image == 0 && options.max_num_solve_observations > 0) {
-      tracks_per_image = SolveTracksPerImageWithin(
-          *reconstruction,
-          static_cast<size_t>(options.max_num_solve_observations));
-    }
-    const std::unordered_set<colmap::point3D_t> left_out =
-        PointsLeftOutOfSolve(*reconstruction, tracks_per_image);
-    if (!left_out.empty()) {
-      LOG(INFO)
-          << "Global BA round: the solves hold "
-          << reconstruction->NumPoints3D() - left_out.size() << " of "
-          << reconstruction->NumPoints3D() << " points ("
-          << NumSolveObservations(*reconstruction, left_out) << " of "
-          << reconstruction->ComputeNumObservations() << " observations"
-          << (options.solve_tracks_per_image == 0
-                  ? ", budget " +
-                        std::to_string(options.max_num_solve_observations) +
-                        " or " + std::to_string(kMinSolveObservationsPerImage) +
-                        " per image"
-                  : std::string())
-          << "): the longest tracks that give every image " << tracks_per_image
-          << " spread over it; the other points are refined with the "
-             "poses fixed";
+    const size_t num_observations = reconstruction->ComputeNumObservations();
+    const size_t budget =
+        options.max_num_solve_observations > 0
+            ? RaisedBudget(
+                  *reconstruction,
+                  static_cast<size_t>(options.max_num_solve_observations))
+            : num_observations;
+    std::unordered_set<colmap::point3D_t> left_out;
+    if (tracks_per_image > 0 || num_observations > budget) {
+      const SolveCandidates candidates =
+          CollectSolveCandidates(*reconstruction);
+      if (tracks_per_image == 0) {
+        tracks_per_image = QuotaWithin(*reconstruction, candidates, budget);
+      }
+      size_t num_solve_observations = 0;
+      left_out = LeftOut(candidates, tracks_per_image, &num_solve_observations);
+      if (!left_out.empty()) {
+        LOG(INFO) << "Global BA round: the solves hold "
+                  << reconstruction->NumPoints3D() - left_out.size() << " of "
+                  << reconstruction->NumPoints3D() << " points ("
+                  << num_solve_observations << " of " << num_observations
+                  << " observations"
+                  << (options.solve_tracks_per_image == 0
+                          ? ", budget " + std::to_string(budget)
+                          : std::string())
+                  << "): the longest tracks that give every image "
+                  << tracks_per_image
+                  << " spread over it; the other points are refined with the "
+                     "poses fixed";
+      }
     }
     const std::vector<Gauge> gauges =
         ChooseGauges(*reconstruction, image_ids, left_out, priors);
