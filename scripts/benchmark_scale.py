@@ -64,7 +64,9 @@ process dies is recorded as such and the benchmark goes on; Ctrl-C stops the
 run in progress (recorded as interrupted), writes the reports of what was
 measured and exits. --resume keeps the successful, evaluated runs of an
 earlier results.json in --output_dir that ran the same mapper command with
-the same colmap binary (by sha256), and runs the rest.
+the same colmap binary (by sha256), and runs the rest; such runs of sizes,
+layouts or seeds that this invocation does not ask for stay in results.json
+and the reports (run the sizes one invocation at a time and keep them all).
 
 The issue's figures (hours on a small machine; run it alone on it):
     nice -n 10 python3 scripts/benchmark_scale.py --readme README.md

@@ -52,6 +52,27 @@ def kept_run(args, previous, layout, num_images, seed, mapper="global"):
                  os.path.isdir(r.get("work") or "")), None)
 
 
+def kept_elsewhere(args, previous, schedule):
+    """The runs of `previous` that --resume keeps although this invocation
+    does not schedule them (other sizes, layouts or seeds, measured by an
+    earlier invocation with the same mapper command and binary), so that
+    results.json and the reports keep them; each marked resumed."""
+    scheduled = {(layout, n, seed) for n, layout, seed in schedule}
+    kept, seen = [], set()
+    for r in previous:
+        key = (r.get("layout"), r.get("images"), r.get("seed"),
+               r.get("mapper", "global"))
+        if key in seen or key[:3] in scheduled:
+            continue
+        seen.add(key)
+        if key[3] == "reference" and not args.reference_colmap:
+            continue
+        run_ = kept_run(args, previous, *key)
+        if run_:
+            kept.append(dict(run_, resumed=True))
+    return kept
+
+
 def write_reports(args, meta, records, final):
     """results.json always; results.md, plots and README when final. The
     tables, slopes and plots are ours; the reference's runs (with
@@ -150,10 +171,11 @@ def run_scene(args, layout, num_images, seed, previous=()):
     return records
 
 
-def run_all(args, meta, schedule, previous):
-    """Runs the schedule [(size, layout, seed)]; (the records, whether it
-    was interrupted). results.json is written after every run."""
-    records = []
+def run_all(args, meta, schedule, previous, records=()):
+    """Runs the schedule [(size, layout, seed)] after `records` (runs kept
+    from elsewhere); (all records, whether it was interrupted).
+    results.json is written after every run."""
+    records = list(records)
     interrupted = False
     signal.signal(signal.SIGINT, run.request_stop)
     signal.signal(signal.SIGTERM, run.request_stop)
@@ -193,9 +215,23 @@ def run_scale(args):
         if args.resume else []
     schedule = [(n, layout, seed) for n in sorted(args.sizes)
                 for layout in args.layouts for seed in args.seeds]
-    records, interrupted = run_all(args, meta, schedule, previous)
+    others = kept_elsewhere(args, previous, schedule)
+    if others:
+        run.log("Kept from the earlier results.json besides this schedule "
+                "(--resume): %s" % ", ".join(
+                    "%s %d (seed %d)%s" % (
+                        r["layout"], r["images"], r["seed"],
+                        ", reference" if r.get("mapper") == "reference"
+                        else "") for r in others))
+        args.sizes = sorted(set(args.sizes) | {r["images"] for r in others})
+        args.layouts = args.layouts + sorted(
+            {r["layout"] for r in others} - set(args.layouts))
+        args.seeds = sorted(set(args.seeds) | {r["seed"] for r in others})
+        meta.update(sizes=args.sizes, layouts=args.layouts, seeds=args.seeds)
+    records, interrupted = run_all(args, meta, schedule, previous, others)
     if interrupted:
-        done = len([r for r in records if r["status"] != "interrupted"
+        done = len([r for r in records[len(others):]
+                    if r["status"] != "interrupted"
                     and r["status"] != "scene interrupted"])
         run.log("interrupted: %d of %d runs done; the reports cover them "
                 "(run again with --resume to finish)" % (done,
