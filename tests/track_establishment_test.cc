@@ -198,23 +198,6 @@ TEST(TrackEstablishment, PerImageQuotaTakesLongestTracksFirst) {
   EXPECT_EQ(Track(quota, 2).back(), (Obs{5, n}));
   EXPECT_EQ(Track(quota, 3).back(), (Obs{5, n + 1}));
 
-  // Tracks of more than 3 images (the nine 1-2-3-4 tracks) only where the
-  // others leave an image below the quota: images 1 and 2 have one other
-  // track (k = 0), so one of them is taken; without a quota none.
-  options.max_num_views_per_track = 3;
-  const TrackStore with_long =
-      EstablishTracks(options, scene.view_graph, scene.reconstruction);
-  ASSERT_EQ(with_long.NumTracks(), 4);
-  EXPECT_EQ(with_long.TrackLength(0), 4);
-  for (size_t k = 1; k < 4; ++k) EXPECT_EQ(with_long.TrackLength(k), 3);
-  EXPECT_EQ(Track(with_long, 1).front(), (Obs{1, 0}));
-  options.min_num_tracks_per_view = -1;
-  const TrackStore without_long =
-      EstablishTracks(options, scene.view_graph, scene.reconstruction);
-  ASSERT_EQ(without_long.NumTracks(), 11);
-  for (size_t k = 0; k < 11; ++k) EXPECT_EQ(without_long.TrackLength(k), 3);
-  options.max_num_views_per_track = 100;
-
   options.min_num_tracks_per_view = 0;
   EXPECT_EQ(options.Check().message(),
             "min_num_tracks_per_view must be -1 or >= 1, is 0");

@@ -111,8 +111,6 @@ struct CandidateTracks {
   // Candidate k's observations are [offsets[k], offsets[k + 1]).
   std::vector<uint64_t> offsets = {0};
   std::vector<size_t> image_idxs;  // Parallel to the observations.
-  // Per candidate: 1 if it sees more than max_num_views_per_track images.
-  std::vector<uint8_t> is_long;
   size_t num_inconsistent = 0;
 
   size_t NumTracks() const { return offsets.size() - 1; }
@@ -120,9 +118,8 @@ struct CandidateTracks {
 };
 
 // The groups of `root_and_feature` whose features within one image lie
-// within max_intra_image_distance_px of each other and that see at least
-// min_num_views_per_track images; those that see more than
-// max_num_views_per_track are kept only with a quota (see SelectTracks).
+// within max_intra_image_distance_px of each other and that see
+// [min_num_views_per_track, max_num_views_per_track] images.
 CandidateTracks MakeCandidates(
     const TrackEstablishmentOptions& options,
     const colmap::Reconstruction& reconstruction, const FeatureIndex& index,
@@ -181,16 +178,13 @@ CandidateTracks MakeCandidates(
     }
     const size_t num_views = candidate_observations.size() - track_begin;
     if (!is_consistent) ++num_inconsistent;
-    const bool is_long =
-        num_views > static_cast<size_t>(options.max_num_views_per_track);
     if (!is_consistent ||
         num_views < static_cast<size_t>(options.min_num_views_per_track) ||
-        (is_long && options.min_num_tracks_per_view < 0)) {
+        num_views > static_cast<size_t>(options.max_num_views_per_track)) {
       candidate_observations.resize(track_begin);
       candidate_image_idxs.resize(track_begin);
     } else {
       candidates.offsets.push_back(candidate_observations.size());
-      candidates.is_long.push_back(is_long ? 1 : 0);
     }
     begin = end;
   }
@@ -200,19 +194,14 @@ CandidateTracks MakeCandidates(
 // Longest tracks first (they constrain the most cameras per unknown point),
 // at most max_num_tracks; with min_num_tracks_per_view, only tracks that
 // see an image with fewer than that many selected tracks, until every image
-// has that many. Tracks longer than max_num_views_per_track come after all
-// others, shortest first. Returns candidate indices.
+// has that many. Returns candidate indices.
 std::vector<size_t> SelectTracks(const TrackEstablishmentOptions& options,
                                  const CandidateTracks& candidates,
                                  size_t num_images) {
   std::vector<size_t> order(candidates.NumTracks());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    if (candidates.is_long[a] != candidates.is_long[b]) {
-      return candidates.is_long[a] < candidates.is_long[b];
-    }
-    return candidates.is_long[a] ? candidates.Length(a) < candidates.Length(b)
-                                 : candidates.Length(a) > candidates.Length(b);
+    return candidates.Length(a) > candidates.Length(b);
   });
   const std::vector<uint64_t>& candidate_offsets = candidates.offsets;
   const std::vector<size_t>& candidate_image_idxs = candidates.image_idxs;
@@ -279,15 +268,8 @@ TrackStore EstablishTracks(const TrackEstablishmentOptions& options,
   if (num_inconsistent_tracks != nullptr) {
     *num_inconsistent_tracks = candidates.num_inconsistent;
   }
-  std::vector<size_t> selected =
+  const std::vector<size_t> selected =
       SelectTracks(options, candidates, index.image_ids.size());
-  // Longest first also where long tracks were taken last (the same order as
-  // the selection's where none were).
-  std::sort(selected.begin(), selected.end(), [&](size_t a, size_t b) {
-    return candidates.Length(a) != candidates.Length(b)
-               ? candidates.Length(a) > candidates.Length(b)
-               : a < b;
-  });
   size_t num_selected_observations = 0;
   for (const size_t idx : selected) {
     num_selected_observations += candidates.Length(idx);
