@@ -437,7 +437,7 @@ void CheckImage(const PoseVerificationOptions& options,
 // made the final verification the mapper's peak on large streets (the
 // generator's 10,000-image street: 2,990 MB against 2,884 MB in the
 // retriangulation before it, about 160 KB per image); kept only for
-// failing images, the stage stays 94 MB above the model it checks.
+// failing images, the stage stays 92 MB above the model it checks.
 std::vector<Check> CheckImages(
     const PoseVerificationOptions& options, const colmap::Reconstruction& model,
     const std::vector<colmap::image_t>& image_ids,
