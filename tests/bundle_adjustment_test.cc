@@ -191,6 +191,8 @@ double Median(std::vector<double> values) {
 struct PoseErrors {
   double max_position_error = 0;  // In ground-truth units.
   double max_rotation_error_deg = 0;
+  double mean_position_error = 0;
+  double mean_rotation_error_deg = 0;
 };
 
 // Errors of `estimate` against `truth` after a least-squares similarity
@@ -218,10 +220,15 @@ PoseErrors ComparePoses(const colmap::Reconstruction& estimate,
     const Eigen::Matrix3d diff =
         truth.Image(image_ids[i]).RotationMatrix().transpose() *
         aligned_rotation;
+    const double rotation_error_deg =
+        Eigen::AngleAxisd(diff).angle() * 180 / M_PI;
     errors.max_rotation_error_deg =
-        std::max(errors.max_rotation_error_deg,
-                 Eigen::AngleAxisd(diff).angle() * 180 / M_PI);
+        std::max(errors.max_rotation_error_deg, rotation_error_deg);
+    errors.mean_position_error += (aligned - dst.col(i)).norm();
+    errors.mean_rotation_error_deg += rotation_error_deg;
   }
+  errors.mean_position_error /= image_ids.size();
+  errors.mean_rotation_error_deg /= image_ids.size();
   return errors;
 }
 
@@ -748,6 +755,71 @@ TEST(GlobalBundleAdjustment, PointsLeftOutOfTheSolveFollowItsPoses) {
     }
   }
   EXPECT_LT(num_outliers_left, 0.02 * outliers.size());
+}
+
+// left_out_sweeps: after a solve that holds part of the points, sweeps
+// over every observation bring the poses closer to those of the solve with
+// all points, and lower the cost of all observations.
+TEST(GlobalBundleAdjustment, SweepsRestPosesOnEveryObservation) {
+  SceneOptions scene_options;
+  scene_options.outlier_ratio = 0.03;
+  const colmap::Reconstruction truth = MakeScene(scene_options, nullptr);
+  colmap::Reconstruction start = truth;
+  Perturb(/*rotation_deg=*/0.5, /*position_sigma=*/0.05,
+          /*focal_factor=*/1.03, /*seed=*/2, &start);
+  GlobalBundleAdjustmentOptions options;
+  colmap::Reconstruction all_points = start;
+  ASSERT_TRUE(RunGlobalBundleAdjustment(options, &all_points).ok());
+  options.solve_tracks_per_image = 20;
+  options.left_out_sweeps = 0;
+  colmap::Reconstruction capped = start;
+  ASSERT_TRUE(RunGlobalBundleAdjustment(options, &capped).ok());
+  options.left_out_sweeps = GlobalBundleAdjustmentOptions().left_out_sweeps;
+  colmap::Reconstruction swept = start;
+  ASSERT_TRUE(RunGlobalBundleAdjustment(options, &swept).ok());
+
+  const PoseErrors all_errors = ComparePoses(all_points, truth);
+  const PoseErrors capped_errors = ComparePoses(capped, truth);
+  const PoseErrors swept_errors = ComparePoses(swept, truth);
+  const PoseErrors capped_from_all = ComparePoses(capped, all_points);
+  const PoseErrors swept_from_all = ComparePoses(swept, all_points);
+  std::cout << "mean position / rotation error: all points "
+            << all_errors.mean_position_error << " / "
+            << all_errors.mean_rotation_error_deg << " deg, capped "
+            << capped_errors.mean_position_error << " / "
+            << capped_errors.mean_rotation_error_deg << " deg, swept "
+            << swept_errors.mean_position_error << " / "
+            << swept_errors.mean_rotation_error_deg
+            << " deg; from all points: capped "
+            << capped_from_all.mean_position_error << " / "
+            << capped_from_all.mean_rotation_error_deg << " deg, swept "
+            << swept_from_all.mean_position_error << " / "
+            << swept_from_all.mean_rotation_error_deg << " deg" << std::endl;
+  EXPECT_LT(swept_from_all.mean_position_error,
+            0.85 * capped_from_all.mean_position_error);
+  EXPECT_LT(swept_from_all.mean_rotation_error_deg,
+            0.85 * capped_from_all.mean_rotation_error_deg);
+  EXPECT_LT(swept_errors.mean_position_error,
+            capped_errors.mean_position_error);
+  EXPECT_LT(swept_errors.mean_rotation_error_deg,
+            capped_errors.mean_rotation_error_deg);
+  const auto total_cost = [](const colmap::Reconstruction& model) {
+    double cost = 0;
+    for (const auto& [point3D_id, point3D] : model.Points3D()) {
+      for (const colmap::TrackElement& el : point3D.Track().Elements()) {
+        const colmap::Image& image = model.Image(el.image_id);
+        const colmap::Camera& camera = model.Camera(image.CameraId());
+        const Eigen::Vector2d projection = colmap::ProjectPointToImage(
+            point3D.XYZ(), image.ProjectionMatrix(), camera);
+        cost += (projection - image.Point2D(el.point2D_idx).XY()).squaredNorm();
+      }
+    }
+    return cost / model.ComputeNumObservations();
+  };
+  std::cout << "mean squared reprojection error: all points "
+            << total_cost(all_points) << ", capped " << total_cost(capped)
+            << ", swept " << total_cost(swept) << " px^2" << std::endl;
+  EXPECT_LT(total_cost(swept), total_cost(capped));
 }
 
 // max_num_solve_observations: a budget that the model fits in changes

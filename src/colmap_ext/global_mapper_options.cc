@@ -345,6 +345,10 @@ std::vector<GlobalMapperOptionEntry> GlobalMapperOptionTable(
                  " per image); above, they hold the longest tracks spread "
                  "over every image and the other points follow their poses "
                  "[observations, 0: no limit]");
+  b.Advanced("ba_left_out_sweeps", &ba.left_out_sweeps,
+             "After rounds whose solves left points out, sweeps over every "
+             "observation: each pose refined with the points held, then each "
+             "point with the poses held");
 
   b.Group("Retriangulation");
   auto& tri = o->retriangulation;

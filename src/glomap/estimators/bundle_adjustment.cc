@@ -1105,6 +1105,113 @@ int QuotaWithin(const colmap::Reconstruction& reconstruction,
   return low;
 }
 
+// One pose refined with every point it observes held: a resection, under
+// the bundle adjustment's loss, with the image's position prior if it has
+// one. The intrinsics are held (they are refined by the solves, where all
+// images of a camera take part).
+void RefinePoseWithPointsHeld(const GlobalBundleAdjustmentOptions& options,
+                              const colmap::BundleAdjustmentOptions& ba_options,
+                              const colmap::Reconstruction& points,
+                              const PositionPriorTerm* priors,
+                              const colmap::Camera& camera,
+                              colmap::Image* image) {
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  const std::unique_ptr<ceres::LossFunction> loss_function(
+      ba_options.CreateLossFunction());
+  image->NormalizeQvec();
+  PoseBlock pose = ToPoseBlock(*image);
+  // Copies of the held blocks: other threads read the model's.
+  std::vector<double> params = camera.Params();
+  std::vector<std::array<double, 3>> xyzs;
+  xyzs.reserve(image->NumPoints3D());
+  for (const colmap::Point2D& point2D : image->Points2D()) {
+    if (!point2D.HasPoint3D()) continue;
+    const Eigen::Vector3d& xyz = points.Point3D(point2D.Point3DId()).XYZ();
+    xyzs.push_back({xyz.x(), xyz.y(), xyz.z()});
+    problem.AddResidualBlock(NewPoseCostFunction(camera, point2D.XY()),
+                             loss_function.get(), pose.data(),
+                             xyzs.back().data(), params.data());
+    problem.SetParameterBlockConstant(xyzs.back().data());
+  }
+  if (problem.NumResiduals() == 0) return;
+  problem.SetParameterBlockConstant(params.data());
+  std::unique_ptr<ceres::LossFunction> prior_loss;
+  if (priors != nullptr && !priors->empty()) {
+    const auto prior = priors->center_in_frame.find(image->ImageId());
+    if (prior != priors->center_in_frame.end()) {
+      prior_loss = std::make_unique<ceres::CauchyLoss>(priors->loss_scale_std);
+      problem.AddResidualBlock(
+          PosePriorCostFunction::Create(prior->second, priors->std_m),
+          prior_loss.get(), pose.data());
+    }
+  }
+  problem.SetManifold(pose.data(), NewPoseAboutCenterManifold());
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.max_num_iterations = options.max_num_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.num_threads = 1;
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  FromPoseBlock(pose, image);
+}
+
+// Sweeps of block-coordinate descent over every observation of the model
+// (see left_out_sweeps): every pose but the gauges' refined with the points
+// held, then every point with the poses held. Each step lowers the cost of
+// all observations, the solve's and the left-out ones alike.
+Status SweepAllObservations(const GlobalBundleAdjustmentOptions& options,
+                            const colmap::BundleAdjustmentOptions& ba_options,
+                            const std::vector<colmap::image_t>& image_ids,
+                            const std::vector<Gauge>& gauges,
+                            const PositionPriorTerm* priors,
+                            const PointRefinementOptions& refinement_options,
+                            colmap::Reconstruction* reconstruction,
+                            const Interrupt& interrupt) {
+  std::vector<colmap::image_t> free_ids;
+  for (const colmap::image_t image_id : image_ids) {
+    if (!IsFixedPoseImage(gauges, image_id) &&
+        ScaleGaugeOfImage(gauges, image_id) == nullptr) {
+      free_ids.push_back(image_id);
+    }
+  }
+  colmap::Timer total_timer;
+  total_timer.Start();
+  double final_cost = 0;
+  size_t num_observations = 0;
+  for (int sweep = 0; sweep < options.left_out_sweeps; ++sweep) {
+    colmap::Timer timer;
+    timer.Start();
+    ParallelFor(options.num_threads, free_ids.size(), [&](size_t i) {
+      if (interrupt.IsStopped()) return;
+      colmap::Image& image = reconstruction->Image(free_ids[i]);
+      RefinePoseWithPointsHeld(options, ba_options, *reconstruction, priors,
+                               reconstruction->Camera(image.CameraId()),
+                               &image);
+    });
+    if (interrupt.IsStopped()) return Status::Cancelled();
+    const double poses_s = timer.ElapsedSeconds();
+    PointRefinementSummary summary;
+    const Status status = RefinePointsWithFixedPoses(
+        refinement_options, {}, reconstruction, interrupt, &summary);
+    if (!status.ok()) return status;
+    VLOG(3) << "BA sweep " << sweep + 1
+            << " over all observations: " << free_ids.size() << " poses ("
+            << poses_s << " s), " << summary.num_points << " points, cost "
+            << summary.initial_cost << " -> " << summary.final_cost << ", "
+            << timer.ElapsedSeconds() << " s";
+    final_cost = summary.final_cost;
+    num_observations = summary.num_observations;
+  }
+  LOG(INFO) << "Global BA: " << options.left_out_sweeps << " sweeps over all "
+            << num_observations << " observations, cost " << final_cost << ", "
+            << total_timer.ElapsedSeconds() << " s";
+  return Status::Ok();
+}
+
 }  // namespace
 
 std::unordered_set<colmap::point3D_t> PointsLeftOutOfSolve(
@@ -1149,6 +1256,7 @@ Status GlobalBundleAdjustmentOptions::Check(const std::string& prefix) const {
                 min_residuals_per_ceres_thread, 1);
   check.AtLeast("solve_tracks_per_image", solve_tracks_per_image, 0);
   check.AtLeast("max_num_solve_observations", max_num_solve_observations, 0);
+  check.AtLeast("left_out_sweeps", left_out_sweeps, 0);
   return check.status();
 }
 
@@ -1225,6 +1333,9 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
       };
 
   bool first_round = true;
+  // The last round's images and gauges, when its solves left points out.
+  std::vector<colmap::image_t> swept_image_ids;
+  std::vector<Gauge> swept_gauges;
   for (int level = 0; level < options.num_rounds; ++level) {
     if (interrupt.IsStopped()) return Status::Cancelled();
     colmap::Timer round_timer;
@@ -1304,6 +1415,11 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
       step_frame_to_priors(gauges);
     }
     first_round = false;
+    swept_image_ids.clear();
+    if (!left_out.empty()) {
+      swept_image_ids = image_ids;
+      swept_gauges = gauges;
+    }
 
     // Filter with a tightening threshold. If few tracks change, tighten
     // without another solve; another round only runs when the filter removed
@@ -1336,6 +1452,12 @@ Status RunGlobalBundleAdjustment(const GlobalBundleAdjustmentOptions& options,
     if (converged) break;
   }
 
+  if (!swept_image_ids.empty() && options.left_out_sweeps > 0) {
+    const Status status = SweepAllObservations(
+        options, ba_options, swept_image_ids, swept_gauges, priors,
+        refinement_options, reconstruction, interrupt);
+    if (!status.ok()) return status;
+  }
   FilterObservationsByNormalizedReprojectionError(
       reconstruction, options.max_normalized_reproj_error);
   FilterPointsByTriangulationAngle(reconstruction, options.min_tri_angle_deg);

@@ -179,6 +179,20 @@ struct GlobalBundleAdjustmentOptions {
   // 1,939 MB, with this budget 1,624 MB (the peak then global
   // positioning's); at 10,000 images the budget is raised to 2 million.
   int max_num_solve_observations = 1000000;
+  // After the rounds, when their solves left points out, this many sweeps
+  // of block-coordinate descent over every observation: each pose refined
+  // with the points held (a resection under the same loss, with its
+  // position prior), then each point with the poses held. The solves fix
+  // the model's shape from part of the points; the sweeps rest each pose on
+  // all its observations, one image's or one point's problem at a time, so
+  // at no memory cost. They recover what the part solve loses where the
+  // shape is held (position priors), not along the dome of a survey without
+  // priors, which such local steps barely move. Measured, AUC@3 without
+  // sweeps / with 3 / all points in the solve: 600-image surveys (final
+  // solve 194,000 of 359,000 observations) with 1 m priors 96.42 / 96.75 /
+  // 96.76, without priors (OPENCV, a camera per image) 91.13 / 91.33 /
+  // 96.33. 2,000-image survey with 1 m priors: 96.53 / 97.03 / 97.36.
+  int left_out_sweeps = 3;
 
   // Skip the solve with fixed rotations (first round only; of the
   // intrinsics it refines the focal lengths alone), or the joint solve, in
